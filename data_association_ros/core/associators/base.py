@@ -1,0 +1,86 @@
+"""What associators share: the associator record, nearest-neighbour selection and labelling."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..parameters import ParameterSpec
+from ..problem import AssociationProblem
+from ..types import NEW, UNASSOCIATED, Association
+
+NO_LANDMARK = -1
+"""Column index meaning 'no landmark chosen' inside associators."""
+
+
+@dataclass(frozen=True)
+class Associator:
+    """A registered algorithm: run(problem, **parameters) -> Association.
+
+    `parameters` lists every keyword `run` accepts (besides the problem); `needs_covariances`
+    says whether S must be computable; `models` are the measurement models it supports.
+    """
+
+    name: str
+    run: Callable[..., Association]
+    parameters: tuple[ParameterSpec, ...]
+    summary: str
+    needs_covariances: bool = True
+    models: tuple[str, ...] = ('point_map', 'point_robot', 'range_bearing', 'box')
+    extras: tuple[str, ...] = field(default=())
+
+
+def nearest_neighbours(cost: np.ndarray, gated: np.ndarray, one_to_one: bool) -> np.ndarray:
+    """Column of the cheapest gated landmark per row (K,), NO_LANDMARK where none.
+
+    one_to_one: the greedy matching (take the globally cheapest free pair, repeat), computed as
+    rounds of locally dominant pairs (row's cheapest free column whose cheapest free row it is),
+    which gives the same matching for distinct costs.
+    """
+    k, n = cost.shape
+    masked = np.where(gated, cost, np.inf)
+    if not one_to_one:
+        best = np.argmin(masked, axis=1) if n else np.zeros(k, dtype=np.intp)
+        return np.where(np.isfinite(masked[np.arange(k), best]) if n else False, best,
+                        NO_LANDMARK).astype(np.intp)
+    chosen = np.full(k, NO_LANDMARK, dtype=np.intp)
+    rows_left = np.ones(k, dtype=bool)
+    while n and rows_left.any():
+        best_column = np.argmin(masked, axis=1)
+        finite = np.isfinite(masked[np.arange(k), best_column])
+        if not finite.any():
+            break
+        best_row = np.argmin(masked, axis=0)
+        rows = np.flatnonzero(finite & (best_row[best_column] == np.arange(k)))
+        chosen[rows] = best_column[rows]
+        masked[rows, :] = np.inf
+        masked[:, best_column[rows]] = np.inf
+        rows_left[rows] = False
+    return chosen
+
+
+def label(problem: AssociationProblem, columns: np.ndarray, gated: np.ndarray,
+          unmatched: int | None = None) -> np.ndarray:
+    """Landmark ids for the chosen columns (K,); an unpaired row is UNASSOCIATED when it is inside
+    some gate, else NEW (or `unmatched` for every unpaired row when given)."""
+    ids = problem.landmarks.ids
+    assignment = np.where(columns >= 0, ids[np.maximum(columns, 0)] if len(ids) else NEW, NEW)
+    unpaired = columns < 0
+    if unmatched is not None:
+        assignment[unpaired] = unmatched
+    else:
+        inside = gated.any(axis=1) if gated.shape[1] else np.zeros(len(columns), dtype=bool)
+        assignment[unpaired & inside] = UNASSOCIATED
+    return assignment.astype(np.int64)
+
+
+def result(problem: AssociationProblem, name: str, columns: np.ndarray, gated: np.ndarray,
+           unmatched: int | None = None, **extras) -> Association:
+    """The Association for chosen columns, with the individual NIS of each chosen pair."""
+    nis = np.full(len(columns), np.nan)
+    if problem.has_covariances:
+        paired = np.flatnonzero(columns >= 0)
+        nis[paired] = problem.nis[paired, columns[paired]]
+    return Association(assignment=label(problem, columns, gated, unmatched), nis=nis,
+                       algorithm=name, extras=dict(extras))

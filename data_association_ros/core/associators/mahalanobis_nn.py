@@ -1,0 +1,17 @@
+"""mahalanobis_nn: smallest NIS d2 = nu^T S^-1 nu with S = H P H^T + R (seed 000, 2; seed 004)."""
+from ..gating import chi2_threshold
+from ..parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, ONE_TO_ONE
+from .base import Associator, nearest_neighbours, result
+
+
+def run(problem, gate_probability: float, min_innovation_variance: float, one_to_one: bool):
+    """Greedy (or one-to-one greedy) NN on d2_ij; NEW when d2 > chi2(m, gate_probability)."""
+    nis = problem.nis
+    gated = nis <= chi2_threshold(gate_probability, problem.observations.dim)
+    return result(problem, 'mahalanobis_nn', nearest_neighbours(nis, gated, one_to_one), gated)
+
+
+ASSOCIATOR = Associator(
+    name='mahalanobis_nn', run=run,
+    parameters=(GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, ONE_TO_ONE),
+    summary='nearest neighbour by Mahalanobis distance inside the chi-square gate')

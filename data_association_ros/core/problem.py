@@ -1,0 +1,196 @@
+"""One association problem, prepared once: predictions, innovations, their covariances and NIS.
+
+For observation i and landmark j, with joint state y = [pose (3), landmark 0 (d), ...] of
+covariance P:  nu_ij = z_i - h(m_j, pose) (angles wrapped),  H_j = dh/dy (m, 3 + N d),
+S_ij = H_j P H_j^T + R_i,  NIS d2_ij = nu_ij^T S_ij^-1 nu_ij.  Without `state_covariance`,
+P = blockdiag(pose covariance, landmark covariances), so the pose still correlates predictions.
+"""
+from __future__ import annotations
+
+from functools import cached_property
+from typing import Optional
+
+import numpy as np
+
+from .errors import InvalidInputError
+from .models import MODELS, MeasurementModel
+from .types import Landmarks, Observations, RobotPose
+from .validation import as_float_array, check_shape
+
+
+class AssociationProblem:
+    """Landmarks, observations, pose and joint covariance checked against each other."""
+
+    def __init__(self, landmarks: Landmarks, observations: Observations,
+                 pose: Optional[RobotPose] = None, state_covariance=None,
+                 min_innovation_variance: float = 0.0) -> None:
+        if not isinstance(landmarks, Landmarks):
+            raise InvalidInputError(f'landmarks: expected Landmarks, got {type(landmarks).__name__}')
+        if not isinstance(observations, Observations):
+            raise InvalidInputError(
+                f'observations: expected Observations, got {type(observations).__name__}')
+        if pose is not None and not isinstance(pose, RobotPose):
+            raise InvalidInputError(f'pose: expected RobotPose or None, got {type(pose).__name__}')
+        self.landmarks = landmarks
+        self.observations = observations
+        self.model: MeasurementModel = MODELS[observations.model]
+        self.min_innovation_variance = min_innovation_variance
+        if self.model.needs_pose and pose is None:
+            raise InvalidInputError(f'pose: model {self.model.name!r} needs the robot pose')
+        self.pose = pose
+        want = self.model.landmark_dim(observations.dim)
+        if len(landmarks) and landmarks.dim != want:
+            raise InvalidInputError(
+                f'landmarks.means: model {self.model.name!r} with {observations.dim}-D '
+                f'observations needs {want}-D landmarks, got {landmarks.dim}-D')
+        self.state_covariance = None
+        if state_covariance is not None:
+            size = 3 + len(landmarks) * landmarks.dim
+            matrix = as_float_array(state_covariance, 'state_covariance', 2)
+            check_shape(matrix, 'state_covariance', (size, size))
+            scale = 1.0 + np.abs(matrix).max(initial=0.0)
+            if np.abs(matrix - matrix.T).max(initial=0.0) > 1e-9 * scale:
+                raise InvalidInputError('state_covariance: not symmetric')
+            if size and np.linalg.eigvalsh(matrix)[0] < -1e-9 * scale:
+                raise InvalidInputError('state_covariance: not positive semi-definite')
+            self.state_covariance = matrix
+
+    @property
+    def sizes(self) -> tuple[int, int]:
+        """(K observations, N landmarks)."""
+        return len(self.observations), len(self.landmarks)
+
+    def require_covariances(self, algorithm: str) -> None:
+        """Raise unless both landmark and observation covariances are given."""
+        if self.landmarks.covariances is None and self.state_covariance is None:
+            raise InvalidInputError(f'landmarks.covariances: required by {algorithm!r}')
+        if self.observations.covariances is None:
+            raise InvalidInputError(f'observations.covariances: required by {algorithm!r}')
+
+    @property
+    def has_covariances(self) -> bool:
+        """True when S can be computed."""
+        return self.observations.covariances is not None and (
+            self.landmarks.covariances is not None or self.state_covariance is not None)
+
+    @cached_property
+    def _prediction(self):
+        pose = None if self.pose is None else self.pose.mean
+        if len(self.landmarks) == 0:
+            m = self.observations.dim
+            d = self.model.landmark_dim(m)
+            return np.zeros((0, m)), np.zeros((0, m, d)), np.zeros((0, m, 3))
+        return self.model.predict(self.landmarks.means, pose)
+
+    @property
+    def predictions(self) -> np.ndarray:
+        """h_j (N, m)."""
+        return self._prediction[0]
+
+    @cached_property
+    def innovations(self) -> np.ndarray:
+        """nu_ij (K, N, m)."""
+        return self.model.innovation(self.observations.values, self.predictions)
+
+    def _pose_covariance(self) -> np.ndarray:
+        if self.state_covariance is not None:
+            return self.state_covariance[:3, :3]
+        return np.zeros((3, 3)) if self.pose is None else self.pose.covariance
+
+    def _landmark_block(self, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """Cov(m_rows, m_columns) as (len(rows), len(columns), d, d)."""
+        d = self.landmarks.dim
+        if self.state_covariance is not None:
+            blocks = self.state_covariance[3:, 3:].reshape(len(self.landmarks), d,
+                                                           len(self.landmarks), d)
+            return blocks[rows][:, :, columns].transpose(0, 2, 1, 3)
+        out = np.zeros((len(rows), len(columns), d, d))
+        same = rows[:, None] == columns[None, :]
+        a, b = np.nonzero(same)
+        out[a, b] = self.landmarks.covariances[rows[a]]
+        return out
+
+    def _pose_landmark_block(self, columns: np.ndarray) -> np.ndarray:
+        """Cov(pose, m_columns) as (len(columns), 3, d)."""
+        d = self.landmarks.dim
+        if self.state_covariance is None:
+            return np.zeros((len(columns), 3, d))
+        cross = self.state_covariance[:3, 3:].reshape(3, len(self.landmarks), d)
+        return cross[:, columns].transpose(1, 0, 2)
+
+    @cached_property
+    def prediction_covariances(self) -> np.ndarray:
+        """H_j P H_j^T (N, m, m): covariance of each prediction."""
+        _, h_m, h_x = self._prediction
+        n = len(self.landmarks)
+        if n == 0:
+            return np.zeros((0,) + (self.observations.dim,) * 2)
+        index = np.arange(n)
+        if self.state_covariance is not None:
+            d = self.landmarks.dim
+            blocks = self.state_covariance[3:, 3:].reshape(n, d, n, d)
+            p_mm = blocks[index, :, index, :]
+        else:
+            p_mm = self.landmarks.covariances
+        p_xm = self._pose_landmark_block(index)
+        cross = h_x @ p_xm @ np.swapaxes(h_m, 1, 2)
+        return (h_x @ self._pose_covariance() @ np.swapaxes(h_x, 1, 2)
+                + cross + np.swapaxes(cross, 1, 2) + h_m @ p_mm @ np.swapaxes(h_m, 1, 2))
+
+    def joint_prediction_covariance(self, landmark_indices: np.ndarray) -> np.ndarray:
+        """Cov(h_a, h_b) for a, b in `landmark_indices` (L, L, m, m): H_a P H_b^T."""
+        _, h_m, h_x = self._prediction
+        idx = np.asarray(landmark_indices, dtype=np.intp)
+        hx, hm = h_x[idx], h_m[idx]
+        p_mm = self._landmark_block(idx, idx)
+        p_xm = self._pose_landmark_block(idx)
+        pose_part = np.einsum('aik,kl,bjl->abij', hx, self._pose_covariance(), hx)
+        cross = np.einsum('aik,bkl,bjl->abij', hx, p_xm, hm)
+        landmark_part = np.einsum('aik,abkl,bjl->abij', hm, p_mm, hm)
+        return pose_part + cross + np.swapaxes(np.swapaxes(cross, 0, 1), 2, 3) + landmark_part
+
+    @cached_property
+    def innovation_covariances(self) -> np.ndarray:
+        """S_ij = H_j P H_j^T + R_i (K, N, m, m), diagonal floored at min_innovation_variance."""
+        s = self.prediction_covariances[None, :, :, :] + \
+            self.observations.covariances[:, None, :, :]
+        if self.min_innovation_variance > 0:
+            diagonal = np.einsum('...ii->...i', s)
+            diagonal[...] = np.maximum(diagonal, self.min_innovation_variance)
+        return s
+
+    @cached_property
+    def nis(self) -> np.ndarray:
+        """d2_ij = nu_ij^T S_ij^-1 nu_ij (K, N)."""
+        k, n = self.sizes
+        if k == 0 or n == 0:
+            return np.zeros((k, n))
+        nu = self.innovations
+        solved = np.linalg.solve(self.innovation_covariances, nu[..., None])[..., 0]
+        return np.einsum('knm,knm->kn', nu, solved)
+
+    @cached_property
+    def log_likelihoods(self) -> np.ndarray:
+        """log N(nu_ij; 0, S_ij) = -(d2 + log det(2 pi S)) / 2 (K, N)."""
+        k, n = self.sizes
+        if k == 0 or n == 0:
+            return np.zeros((k, n))
+        _, logdet = np.linalg.slogdet(2.0 * np.pi * self.innovation_covariances)
+        return -0.5 * (self.nis + logdet)
+
+    @cached_property
+    def euclidean_distances(self) -> np.ndarray:
+        """|nu_ij| in measurement units (K, N)."""
+        return np.linalg.norm(self.innovations, axis=-1)
+
+    def nis_of(self, assignment: np.ndarray) -> np.ndarray:
+        """Individual NIS of each chosen pair (K,), NaN where unpaired or S unavailable."""
+        out = np.full(len(assignment), np.nan)
+        if not self.has_covariances:
+            return out
+        paired = np.flatnonzero(assignment >= 0)
+        if paired.size:
+            column = {int(lid): j for j, lid in enumerate(self.landmarks.ids)}
+            cols = np.array([column[int(a)] for a in assignment[paired]])
+            out[paired] = self.nis[paired, cols]
+        return out

@@ -1,0 +1,50 @@
+"""Checks shared by the core types: finiteness, shapes, symmetric positive-definite matrices."""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InvalidInputError
+
+
+def as_float_array(value, field: str, ndim: int) -> np.ndarray:
+    """`value` as a float64 array of `ndim` dimensions with only finite entries."""
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise InvalidInputError(f'{field}: not numeric ({error})') from None
+    if array.ndim != ndim:
+        raise InvalidInputError(f'{field}: expected {ndim} dimensions, got shape {array.shape}')
+    check_finite(array, field)
+    return array
+
+
+def check_finite(array: np.ndarray, field: str) -> None:
+    """Raise naming the first index holding NaN or inf."""
+    bad = ~np.isfinite(array)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise InvalidInputError(f'{field}[{", ".join(map(str, index))}]: not finite ({array[index]})')
+
+
+def check_shape(array: np.ndarray, field: str, shape: tuple) -> None:
+    """Raise unless `array.shape == shape` (None in `shape` matches any size)."""
+    if len(array.shape) != len(shape) or any(
+            want is not None and got != want for got, want in zip(array.shape, shape)):
+        wanted = '(' + ', '.join('*' if s is None else str(s) for s in shape) + ')'
+        raise InvalidInputError(f'{field}: expected shape {wanted}, got {array.shape}')
+
+
+def check_spd(matrices: np.ndarray, field: str) -> None:
+    """Raise naming the first matrix of the (n, d, d) stack that is not symmetric positive definite."""
+    if matrices.size == 0:
+        return
+    scale = 1.0 + np.abs(matrices).max(axis=(-2, -1))
+    asym = np.abs(matrices - np.swapaxes(matrices, -1, -2)).max(axis=(-2, -1))
+    bad = np.flatnonzero(asym > 1e-9 * scale)
+    if bad.size:
+        raise InvalidInputError(f'{field}[{bad[0]}]: not symmetric')
+    smallest = np.linalg.eigvalsh(matrices)[..., 0]
+    bad = np.flatnonzero(smallest <= 1e-12 * scale)
+    if bad.size:
+        raise InvalidInputError(
+            f'{field}[{bad[0]}]: not positive definite (smallest eigenvalue {smallest[bad[0]]:.3g})')

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Create or refresh .venv with the ROS 2 Jazzy wheels from PyPI and this package (editable).
+# Sourced by run_main.sh and run_tests.sh; needs only python3 (3.10-3.13) and pip.
+set -euo pipefail
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+venv="${DA_VENV:-$repo/.venv}"
+python="${PYTHON:-python3}"
+if [ ! -x "$venv/bin/python" ]; then
+  "$python" -m venv "$venv"
+fi
+stamp="$venv/.installed-$(cat "$repo/scripts/requirements.txt" "$repo/setup.py" | cksum | cut -d' ' -f1)"
+if [ ! -f "$stamp" ]; then
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --upgrade pip
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$repo/scripts/requirements.txt"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e "$repo"
+  rm -f "$venv"/.installed-*
+  touch "$stamp"
+fi
+# DDS stays on this machine (DESIGN.md 6); each run picks its own domain unless one is given.
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( ($$ % 90) + 5 ))}"
+export PATH="$venv/bin:$PATH"

@@ -1,0 +1,33 @@
+"""ament_python build of data_association_ros (also installable with pip)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'data_association_ros'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(include=['data_association_ros', 'data_association_ros.*',
+                                    'msg_adapters', 'msg_adapters.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
+    ],
+    python_requires='>=3.10',
+    install_requires=['setuptools', 'numpy', 'scipy'],
+    zip_safe=True,
+    maintainer='data_association_ros developers',
+    maintainer_email='dev@data-association-ros.invalid',
+    description='Data association (NN, ML, GNN, JCBB, IoU) as a ROS 2 node and a numpy library.',
+    license='Apache-2.0',
+    extras_require={'test': ['pytest', 'hypothesis']},
+    entry_points={
+        'console_scripts': [
+            'association_node = data_association_ros.node:main',
+            'da_demo = data_association_ros.demo:main',
+        ],
+    },
+)
