@@ -8,7 +8,10 @@ python="${PYTHON:-python3}"
 if [ ! -x "$venv/bin/python" ]; then
   "$python" -m venv "$venv"
 fi
-stamp="$venv/.installed-$(cat "$repo/scripts/requirements.txt" "$repo/setup.py" | cksum | cut -d' ' -f1)"
+# Reinstall when the requirements, setup.py or the list of Python packages change (an editable
+# install maps the packages that existed when it ran).
+stamp="$venv/.installed-$( (cat "$repo/scripts/requirements.txt" "$repo/setup.py"; cd "$repo" &&
+  find data_association_ros msg_adapters -name __init__.py | sort) | cksum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ]; then
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --upgrade pip
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$repo/scripts/requirements.txt"

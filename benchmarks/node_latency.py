@@ -1,0 +1,174 @@
+"""Latency from publishing an observation message to receiving its correspondences.
+
+Starts association_node (per algorithm) and a bare rclpy echo node as separate processes on
+loopback DDS, sends the same K-observation scans to each, one at a time, and prints median and
+p99 of the round trip; the echo's round trip (same message sizes, no work) is the baseline
+measured in the same run.
+
+    python benchmarks/node_latency.py [--observations 50] [--landmarks 200] [--messages 200]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(20, 90)))
+
+import rclpy  # noqa: E402
+from nav_msgs.msg import Odometry  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import PointCloud2  # noqa: E402
+from std_msgs.msg import Header  # noqa: E402
+
+from msg_adapters import array_to_cloud  # noqa: E402
+from msg_adapters.outputs import CORRESPONDENCE_DTYPE  # noqa: E402
+
+QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def echo_main(observations: int, ros_arguments: list[str]) -> None:
+    """Bare rclpy round trip: answer each observation message with a correspondences-sized
+    cloud."""
+    rclpy.init(args=[sys.argv[0]] + ros_arguments)
+    node = rclpy.create_node('echo_node')
+    reply = array_to_cloud(np.zeros(observations, dtype=CORRESPONDENCE_DTYPE))
+    publisher = node.create_publisher(PointCloud2, 'correspondences', 10)
+
+    def answer(msg):
+        reply.header = msg.header
+        publisher.publish(reply)
+    node.create_subscription(PointCloud2, 'observations', answer, QOS)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+
+
+def scene(observations: int, landmarks: int, seed: int = 0):
+    """Range-bearing scan: N landmarks within 30 m, K - K//5 of them seen, K//5 clutter."""
+    rng = np.random.default_rng(seed)
+    means = rng.uniform(-30, 30, (landmarks, 2))
+    pose = np.array([0.5, -0.3, 0.2])
+    seen = rng.choice(landmarks, observations - observations // 5, replace=False)
+    delta = means[seen] - pose[:2] + rng.normal(0, 0.05, (len(seen), 2))
+    ranges = np.concatenate([np.hypot(*delta.T), rng.uniform(1, 30, observations // 5)])
+    bearings = np.concatenate([np.arctan2(delta[:, 1], delta[:, 0]) - pose[2],
+                               rng.uniform(-np.pi, np.pi, observations // 5)])
+    landmark_points = np.zeros(landmarks, dtype=[('id', '<i4'), ('x', '<f4'), ('y', '<f4'),
+                                                 ('cov_xx', '<f4'), ('cov_xy', '<f4'),
+                                                 ('cov_yy', '<f4')])
+    landmark_points['id'] = np.arange(landmarks)
+    landmark_points['x'], landmark_points['y'] = means.T
+    landmark_points['cov_xx'] = landmark_points['cov_yy'] = 0.01
+    observation_points = np.zeros(observations, dtype=[('range', '<f4'), ('bearing', '<f4'),
+                                                       ('var_range', '<f4'),
+                                                       ('var_bearing', '<f4')])
+    observation_points['range'], observation_points['bearing'] = ranges, bearings
+    observation_points['var_range'], observation_points['var_bearing'] = 0.01, 1e-4
+    return landmark_points, observation_points, pose
+
+
+def measure(namespace: str, command: list[str], args, landmark_points, observation_points,
+            pose) -> np.ndarray:
+    """Round-trip times [ms] of args.messages observation messages through one server."""
+    process = subprocess.Popen(command + ['--ros-args', '-r', f'__ns:={namespace}'],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    node = rclpy.create_node('latency_client', namespace=namespace)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    received: dict[tuple[int, int], float] = {}
+
+    def on_reply(msg):
+        received[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = time.perf_counter()
+    node.create_subscription(PointCloud2, 'correspondences', on_reply, QOS)
+    landmarks_pub = node.create_publisher(PointCloud2, 'landmarks', QOS)
+    observations_pub = node.create_publisher(PointCloud2, 'observations', QOS)
+    pose_pub = node.create_publisher(Odometry, 'robot_pose', QOS)
+    try:
+        deadline = time.monotonic() + 30
+        while (observations_pub.get_subscription_count() == 0
+               or node.count_publishers('correspondences') == 0) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        latencies = []
+        for k in range(args.messages + args.warmup):
+            stamp = Header()
+            stamp.stamp.sec = 1000 + k
+            stamp.frame_id = 'map'
+            landmarks_pub.publish(array_to_cloud(landmark_points, stamp))
+            odometry = Odometry(header=stamp)
+            odometry.pose.pose.position.x, odometry.pose.pose.position.y = pose[:2]
+            odometry.pose.pose.orientation.z = np.sin(pose[2] / 2)
+            odometry.pose.pose.orientation.w = np.cos(pose[2] / 2)
+            covariance = np.zeros((6, 6))
+            covariance[0, 0] = covariance[1, 1] = 0.01
+            covariance[5, 5] = 0.003
+            odometry.pose.covariance = covariance.ravel().tolist()
+            pose_pub.publish(odometry)
+            executor.spin_once(timeout_sec=0.02)  # let the map and pose arrive first
+            observation_header = Header(stamp=stamp.stamp, frame_id='base_link')
+            message = array_to_cloud(observation_points, observation_header)
+            key = (stamp.stamp.sec, 0)
+            sent = time.perf_counter()
+            observations_pub.publish(message)
+            deadline = time.monotonic() + 5
+            while key not in received and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.005)
+            if key in received and k >= args.warmup:
+                latencies.append((received[key] - sent) * 1000.0)
+        return np.array(latencies)
+    finally:
+        executor.remove_node(node)
+        node.destroy_node()
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--observations', type=int, default=50)
+    parser.add_argument('--landmarks', type=int, default=200)
+    parser.add_argument('--messages', type=int, default=200)
+    parser.add_argument('--warmup', type=int, default=10)
+    parser.add_argument('--algorithms', default='mahalanobis_nn,jcbb')
+    parser.add_argument('--echo', action='store_true', help=argparse.SUPPRESS)
+    args, ros_arguments = parser.parse_known_args()
+    if args.echo:
+        echo_main(args.observations, ros_arguments)
+        return
+    rclpy.init()
+    landmark_points, observation_points, pose = scene(args.observations, args.landmarks)
+    here = os.path.abspath(__file__)
+    servers = [('bare rclpy echo', [sys.executable, here, '--echo', '--observations',
+                                    str(args.observations)])]
+    servers += [(name, [sys.executable, '-m', 'data_association_ros.node', '--ros-args', '-p',
+                        f'algorithm:={name}'])
+                for name in args.algorithms.split(',')]
+    print(f'K={args.observations} observations, N={args.landmarks} landmarks, '
+          f'{args.messages} messages each, ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]}')
+    print(f'{"server":<18}{"answered":>9}{"median ms":>11}{"p99 ms":>9}{"x echo":>8}')
+    baseline = None
+    for index, (name, command) in enumerate(servers):
+        latencies = measure(f'/latency{index}', command, args, landmark_points,
+                            observation_points, pose)
+        median = float(np.median(latencies)) if len(latencies) else float('nan')
+        p99 = float(np.percentile(latencies, 99)) if len(latencies) else float('nan')
+        baseline = median if baseline is None else baseline
+        print(f'{name:<18}{len(latencies):>9}{median:>11.2f}{p99:>9.2f}'
+              f'{median / baseline:>8.1f}')
+    rclpy.shutdown()
+
+
+if __name__ == '__main__':
+    main()

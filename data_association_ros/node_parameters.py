@@ -1,0 +1,121 @@
+"""The association node's parameters: defaults, ranges, descriptions, validation (no ROS types).
+
+Algorithm parameters reuse the core's ParameterSpec of each associator, so the node and the
+library accept exactly the same values.
+"""
+from __future__ import annotations
+
+import array
+from dataclasses import dataclass
+from typing import Any, Optional
+
+from .core import InvalidInputError, available_algorithms
+from .core.associators import REGISTRY
+from .core.parameters import ParameterSpec
+
+MEASUREMENT_MODELS = ('auto', 'point_map', 'point_robot', 'range_bearing', 'box')
+
+
+@dataclass(frozen=True)
+class NodeParameter:
+    """A node parameter: a numeric/bool ParameterSpec, or a string with `choices`, or a list of
+    positive floats; `read_only` when a change cannot apply at run time."""
+
+    name: str
+    default: Any
+    description: str
+    spec: Optional[ParameterSpec] = None
+    choices: tuple[str, ...] = ()
+    read_only: bool = False
+
+    def check(self, value: Any) -> Any:
+        """The checked value; InvalidInputError with the reason otherwise."""
+        if self.choices:
+            if value not in self.choices:
+                raise InvalidInputError(
+                    f'{self.name}: {value!r} is not one of {", ".join(self.choices)}')
+            return value
+        if self.spec is not None:
+            return self.spec.check(value)
+        values = list(value) if isinstance(value, (list, tuple, array.array)) else None
+        if not values or len(values) > 4 or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and 0 < v < float('inf')
+                for v in values):
+            raise InvalidInputError(f'{self.name}: expected 1 to 4 positive variances, '
+                                    f'got {value!r}')
+        return [float(v) for v in values]
+
+    def range_text(self) -> str:
+        """Valid values for the README and the descriptor."""
+        if self.choices:
+            return ', '.join(self.choices)
+        if self.spec is not None:
+            return self.spec.range_text()
+        return '1 or m positive values'
+
+
+def _core_specs() -> dict[str, ParameterSpec]:
+    specs: dict[str, ParameterSpec] = {}
+    for associator in REGISTRY.values():
+        for spec in associator.parameters:
+            specs.setdefault(spec.name, spec)
+    return specs
+
+
+def _from_spec(spec: ParameterSpec, default=None, read_only: bool = False) -> NodeParameter:
+    return NodeParameter(spec.name, spec.default if default is None else default,
+                         spec.description, spec=spec, read_only=read_only)
+
+
+_CORE = _core_specs()
+NODE_PARAMETERS: tuple[NodeParameter, ...] = (
+    NodeParameter('algorithm', 'mahalanobis_nn', 'associator, switchable at run time',
+                  choices=available_algorithms()),
+    NodeParameter('measurement_model', 'auto',
+                  'auto: range/bearing fields -> range_bearing; width/height -> box; x/y in the '
+                  "landmarks' frame -> point_map; x/y in another frame -> point_robot",
+                  choices=MEASUREMENT_MODELS),
+    *(_from_spec(_CORE[name]) for name in ('gate_probability', 'euclidean_gate',
+                                            'new_landmark_likelihood', 'iou_threshold',
+                                            'one_to_one', 'min_innovation_variance')),
+    _from_spec(_CORE['time_budget_ms'], default=100.0),
+    _from_spec(_CORE['max_nodes']),
+    NodeParameter('default_landmark_covariance', 0.01,
+                  'variance [m^2] on each axis of landmarks that carry no covariance (PoseArray, '
+                  'clouds without cov_* fields); applies from the next landmarks message',
+                  spec=ParameterSpec('default_landmark_covariance', 0.01, '', low=0.0,
+                                     low_open=True)),
+    NodeParameter('observation_noise', [0.01],
+                  'variances of observations that carry no covariance fields, in the model\'s '
+                  'units and order (x, y [m^2]; range [m^2], bearing [rad^2]; x, y, width, '
+                  'height): 1 value for all or m values'),
+    NodeParameter('max_landmark_age', 1.0,
+                  'newest landmarks not newer than the observation are used if at most this '
+                  'old [s]', spec=ParameterSpec('max_landmark_age', 1.0, '', low=0.0)),
+    NodeParameter('pose_tolerance', 0.05,
+                  'the robot pose nearest the observation stamp is used within this [s]',
+                  spec=ParameterSpec('pose_tolerance', 0.05, '', low=0.0)),
+    NodeParameter('publish_markers', False, 'publish association_markers (costs time)',
+                  spec=ParameterSpec('publish_markers', False, '', kind=bool)),
+    NodeParameter('landmarks_type', 'pointcloud2',
+                  'message type of the landmarks topic', choices=('pointcloud2', 'pose_array'),
+                  read_only=True),
+    NodeParameter('input_qos', 'reliable',
+                  'QoS of the input subscriptions: reliable (keep last, reliable) or '
+                  'sensor_data (best effort)', choices=('reliable', 'sensor_data'),
+                  read_only=True),
+    NodeParameter('qos_depth', 10, 'history depth of the input subscriptions',
+                  spec=ParameterSpec('qos_depth', 10, '', kind=int, low=1, high=10000),
+                  read_only=True),
+    NodeParameter('diagnostics_period', 1.0, 'seconds between /diagnostics messages',
+                  spec=ParameterSpec('diagnostics_period', 1.0, '', low=0.01, high=3600.0),
+                  read_only=True),
+)
+BY_NAME = {parameter.name: parameter for parameter in NODE_PARAMETERS}
+
+
+def algorithm_arguments(config: dict[str, Any]) -> dict[str, Any]:
+    """The keyword arguments of `associate` for config['algorithm'] taken from the node config."""
+    associator = REGISTRY[config['algorithm']]
+    return {spec.name: config[spec.name] for spec in associator.parameters
+            if spec.name in config}

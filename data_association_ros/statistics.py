@@ -1,0 +1,62 @@
+"""Counters and latency figures the node reports on /diagnostics (no ROS types)."""
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+
+from .core import NEW, UNASSOCIATED
+
+
+class AssociationStatistics:
+    """Answered messages, outcomes per observation, skipped/invalid messages by cause, latency."""
+
+    def __init__(self, warn_period_s: float = 5.0) -> None:
+        self.answered = 0
+        self.outcomes: Counter = Counter()
+        self.skipped: Counter = Counter()
+        self.invalid: Counter = Counter()
+        self.truncated = 0
+        self.latency_last_ms = float('nan')
+        self.latency_max_ms = 0.0
+        self._latency_sum_ms = 0.0
+        self.warn_period_s = warn_period_s
+        self._last_warned: dict[str, float] = {}
+
+    def record_answer(self, assignment: np.ndarray, latency_ms: float, truncated: bool) -> None:
+        """One observation message answered."""
+        self.answered += 1
+        self.outcomes['paired'] += int((assignment >= 0).sum())
+        self.outcomes['new'] += int((assignment == NEW).sum())
+        self.outcomes['unassociated'] += int((assignment == UNASSOCIATED).sum())
+        self.truncated += int(truncated)
+        self.latency_last_ms = latency_ms
+        self.latency_max_ms = max(self.latency_max_ms, latency_ms)
+        self._latency_sum_ms += latency_ms
+
+    def should_warn(self, cause: str, now_s: float) -> bool:
+        """True at most once per `warn_period_s` for each cause (throttled warnings)."""
+        last = self._last_warned.get(cause)
+        if last is not None and now_s - last < self.warn_period_s:
+            return False
+        self._last_warned[cause] = now_s
+        return True
+
+    def key_values(self) -> dict[str, object]:
+        """Flat name -> value mapping for diagnostics."""
+        mean = self._latency_sum_ms / self.answered if self.answered else float('nan')
+        values: dict[str, object] = {
+            'messages_answered': self.answered,
+            'latency_last_ms': f'{self.latency_last_ms:.3f}',
+            'latency_mean_ms': f'{mean:.3f}',
+            'latency_max_ms': f'{self.latency_max_ms:.3f}',
+            'observations_paired': self.outcomes['paired'],
+            'observations_new': self.outcomes['new'],
+            'observations_unassociated': self.outcomes['unassociated'],
+            'search_truncations': self.truncated,
+            'skipped_total': sum(self.skipped.values()),
+            'invalid_total': sum(self.invalid.values()),
+        }
+        values.update({f'skipped_{cause}': n for cause, n in sorted(self.skipped.items())})
+        values.update({f'invalid_{cause}': n for cause, n in sorted(self.invalid.items())})
+        return values

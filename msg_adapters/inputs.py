@@ -1,0 +1,160 @@
+"""Input messages -> core types: landmarks, observations, robot pose, joint covariance.
+
+Field names follow DESIGN.md section 4. Content errors raise the core's InvalidInputError,
+layout errors pointcloud.PointCloudFormatError; both name the field.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from data_association_ros.core import InvalidInputError, Landmarks, Observations, RobotPose
+
+from .pointcloud import cloud_to_array
+
+MODEL_FIELDS = {
+    'range_bearing': ('range', 'bearing'),
+    'box': ('x', 'y', 'width', 'height'),
+    'point_map': ('x', 'y'),
+    'point_robot': ('x', 'y'),
+}
+"""The value fields each measurement model reads from an observation cloud, in order."""
+
+COVARIANCE_FIELDS = {
+    'range_bearing': ('var_range', None, 'var_bearing'),
+    'point_map': ('cov_xx', 'cov_xy', 'cov_yy'),
+    'point_robot': ('cov_xx', 'cov_xy', 'cov_yy'),
+}
+"""(var_0, cov_01, var_1) field names of the 2-D models; None: no such field (zero)."""
+
+
+def detect_model(field_names: Sequence[str], observation_frame: str, landmark_frame: str) -> str:
+    """measurement_model 'auto': range/bearing fields -> range_bearing; width/height -> box;
+    x/y in the landmarks' frame -> point_map; x/y in another frame -> point_robot."""
+    names = set(field_names)
+    if {'range', 'bearing'} <= names:
+        return 'range_bearing'
+    if {'x', 'y', 'width', 'height'} <= names:
+        return 'box'
+    if {'x', 'y'} <= names:
+        return 'point_map' if observation_frame == landmark_frame else 'point_robot'
+    raise InvalidInputError(
+        f'observations: cannot tell the measurement model from fields {sorted(names)} (need '
+        'range+bearing, x+y+width+height or x+y)')
+
+
+def _column(points: np.ndarray, name: str, what: str) -> np.ndarray:
+    if points.dtype.names is None or name not in points.dtype.names:
+        raise InvalidInputError(f'{what}: missing field {name!r} (has {points.dtype.names})')
+    return points[name].astype(np.float64)
+
+
+def _covariances_2d(points, names, fallback: np.ndarray) -> np.ndarray:
+    """(n, 2, 2) from (var_0, cov_01, var_1) fields when both variances exist, else fallback."""
+    n = len(points)
+    available = points.dtype.names or ()
+    if names[0] in available and names[2] in available:
+        cov = np.zeros((n, 2, 2))
+        cov[:, 0, 0] = points[names[0]]
+        cov[:, 1, 1] = points[names[2]]
+        if names[1] is not None and names[1] in available:
+            cov[:, 0, 1] = cov[:, 1, 0] = points[names[1]]
+        return cov
+    return np.broadcast_to(fallback, (n,) + fallback.shape).copy()
+
+
+def noise_matrix(variances: Sequence[float], dim: int) -> np.ndarray:
+    """diag of `dim` variances from 1 value (repeated) or `dim` values."""
+    variances = np.asarray(variances, dtype=np.float64).ravel()
+    if variances.size == 1:
+        variances = np.repeat(variances, dim)
+    if variances.size != dim:
+        raise InvalidInputError(f'observation_noise: expected 1 or {dim} variances, '
+                                f'got {variances.size}')
+    return np.diag(variances)
+
+
+def observations_from_points(points: np.ndarray, model: str,
+                             observation_noise: Sequence[float]) -> Observations:
+    """Observations of `model` from a structured array; missing covariance fields fall back to
+    diag(`observation_noise`) (variances in the model's units, 1 or m values)."""
+    names = MODEL_FIELDS[model]
+    values = np.column_stack([_column(points, name, 'observations') for name in names]) \
+        if len(points) else np.zeros((0, len(names)))
+    fallback = noise_matrix(observation_noise, len(names))
+    if model in COVARIANCE_FIELDS:
+        covariances = _covariances_2d(points, COVARIANCE_FIELDS[model], fallback)
+    else:
+        covariances = np.broadcast_to(fallback, (len(points),) + fallback.shape).copy()
+    return Observations(values, covariances, model)
+
+
+def observations_from_cloud(msg, model: str, observation_noise: Sequence[float]) -> Observations:
+    """Observations from a sensor_msgs/PointCloud2 (fields per MODEL_FIELDS)."""
+    return observations_from_points(cloud_to_array(msg), model, observation_noise)
+
+
+def landmarks_from_points(points: np.ndarray, default_variance: float,
+                          box: bool = False) -> Landmarks:
+    """Landmarks from a structured array with `id`, `x`, `y` [+ cov_xx, cov_xy, cov_yy]
+    (boxes: `id`, `x`, `y`, `width`, `height`); missing covariances: default_variance * I."""
+    names = MODEL_FIELDS['box'] if box else ('x', 'y')
+    ids = _column(points, 'id', 'landmarks')
+    means = np.column_stack([_column(points, name, 'landmarks') for name in names]) \
+        if len(points) else np.zeros((0, len(names)))
+    fallback = np.eye(len(names)) * default_variance
+    covariances = np.broadcast_to(fallback, (len(points),) + fallback.shape).copy() if box \
+        else _covariances_2d(points, COVARIANCE_FIELDS['point_map'], fallback)
+    return Landmarks(ids, means, covariances)
+
+
+def landmarks_from_cloud(msg, default_variance: float, box: bool = False) -> Landmarks:
+    """Landmarks from a sensor_msgs/PointCloud2 (see landmarks_from_points)."""
+    return landmarks_from_points(cloud_to_array(msg), default_variance, box)
+
+
+def landmarks_from_pose_array(msg, default_variance: float) -> Landmarks:
+    """Landmarks from a geometry_msgs/PoseArray: id = index, mean = (x, y),
+    covariance = default_variance * I."""
+    n = len(msg.poses)
+    means = np.array([[p.position.x, p.position.y] for p in msg.poses]).reshape(n, 2)
+    return Landmarks(np.arange(n), means, np.tile(np.eye(2) * default_variance, (n, 1, 1)))
+
+
+def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
+    """Rotation about z [rad] of a unit quaternion (ZYX Euler yaw)."""
+    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+
+
+POSE_COVARIANCE_INDEX = np.ix_([0, 1, 5], [0, 1, 5])
+"""Rows/columns (x, y, yaw) of the 6x6 row-major pose covariance (x, y, z, roll, pitch, yaw)."""
+
+
+def pose_from_odometry(msg) -> RobotPose:
+    """RobotPose (x, y, yaw) and its 3x3 covariance from a nav_msgs/Odometry."""
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    norm = np.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
+    if not np.isfinite(norm) or norm < 1e-9:
+        raise InvalidInputError(f'robot_pose.pose.orientation: not a rotation (norm {norm:g})')
+    yaw = yaw_from_quaternion(q.x / norm, q.y / norm, q.z / norm, q.w / norm)
+    covariance = np.asarray(msg.pose.covariance, dtype=np.float64).reshape(6, 6)
+    return RobotPose([p.x, p.y, yaw], covariance[POSE_COVARIANCE_INDEX])
+
+
+def joint_covariance_from_array(msg) -> np.ndarray:
+    """Square matrix from a std_msgs/Float64MultiArray (layout dims, or n*n values)."""
+    data = np.asarray(msg.data, dtype=np.float64)
+    dims = [d.size for d in msg.layout.dim]
+    if len(dims) == 2 and dims[0] == dims[1] and dims[0] * dims[1] == data.size:
+        size = dims[0]
+    else:
+        size = int(round(np.sqrt(data.size)))
+        if size * size != data.size:
+            raise InvalidInputError(
+                f'state_covariance.data: {data.size} values is not a square matrix')
+    offset = msg.layout.data_offset
+    if offset:
+        raise InvalidInputError('state_covariance.layout.data_offset: must be 0')
+    return data.reshape(size, size)
+

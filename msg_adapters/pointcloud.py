@@ -1,0 +1,147 @@
+"""sensor_msgs/PointCloud2 <-> numpy structured arrays, for any field layout (numpy only).
+
+Handles every PointField datatype, padding between fields, point_step larger than the fields,
+row_step padding, height > 1 and big-endian data; rejects count != 1.  No per-point loops.
+"""
+from __future__ import annotations
+
+from typing import Mapping, Optional, Sequence, Union
+
+import numpy as np
+from sensor_msgs.msg import PointCloud2, PointField
+
+
+class PointCloudFormatError(ValueError):
+    """A PointCloud2 whose layout cannot be decoded; the message names the problem."""
+
+
+POINTFIELD_DTYPES = {
+    PointField.INT8: np.dtype('i1'), PointField.UINT8: np.dtype('u1'),
+    PointField.INT16: np.dtype('i2'), PointField.UINT16: np.dtype('u2'),
+    PointField.INT32: np.dtype('i4'), PointField.UINT32: np.dtype('u4'),
+    PointField.FLOAT32: np.dtype('f4'), PointField.FLOAT64: np.dtype('f8'),
+}
+"""PointField datatype constant -> numpy dtype (native byte order)."""
+_DATATYPE_OF = {(dtype.kind, dtype.itemsize): datatype
+                for datatype, dtype in POINTFIELD_DTYPES.items()}
+
+
+def cloud_dtype(fields: Sequence[PointField], point_step: int, is_bigendian: bool) -> np.dtype:
+    """Structured dtype of one point: the fields at their offsets, itemsize point_step."""
+    names, formats, offsets = [], [], []
+    order = '>' if is_bigendian else '<'
+    for field in fields:
+        if field.datatype not in POINTFIELD_DTYPES:
+            raise PointCloudFormatError(
+                f'field {field.name!r} has unknown datatype {field.datatype}')
+        if field.count != 1:
+            raise PointCloudFormatError(
+                f'field {field.name!r} has count {field.count}; only count 1 is supported')
+        if field.name in names:
+            raise PointCloudFormatError(f'field {field.name!r} appears twice')
+        dtype = POINTFIELD_DTYPES[field.datatype].newbyteorder(order)
+        if field.offset + dtype.itemsize > point_step:
+            raise PointCloudFormatError(
+                f'field {field.name!r} (offset {field.offset}, {dtype.itemsize} bytes) overruns '
+                f'point_step {point_step}')
+        names.append(field.name)
+        formats.append(dtype)
+        offsets.append(field.offset)
+    spans = sorted((offset, offset + dtype.itemsize, name)
+                   for offset, dtype, name in zip(offsets, formats, names))
+    for (_, end, first), (start, _, second) in zip(spans, spans[1:]):
+        if start < end:
+            raise PointCloudFormatError(f'fields {first!r} and {second!r} overlap')
+    return np.dtype({'names': names, 'formats': formats, 'offsets': offsets,
+                     'itemsize': max(point_step, 1)})
+
+
+def cloud_to_array(msg: PointCloud2) -> np.ndarray:
+    """1-D structured array of the height*width points (row-major), native byte order."""
+    count = msg.height * msg.width
+    point_step, row_step = msg.point_step, msg.row_step
+    if count and point_step <= 0:
+        raise PointCloudFormatError(f'point_step is {point_step} for {count} points')
+    dtype = cloud_dtype(msg.fields, point_step, msg.is_bigendian) if count else cloud_dtype(
+        msg.fields, max(point_step, max((f.offset + POINTFIELD_DTYPES.get(
+            f.datatype, np.dtype('u1')).itemsize for f in msg.fields), default=1)),
+        msg.is_bigendian)
+    data = memoryview(msg.data).cast('B') if not isinstance(msg.data, bytes) else msg.data
+    if count == 0:
+        if len(data):
+            raise PointCloudFormatError(f'data has {len(data)} bytes, expected 0 for 0 points')
+        return np.zeros(0, dtype=_native(dtype))
+    if row_step < msg.width * point_step:
+        raise PointCloudFormatError(
+            f'row_step {row_step} is smaller than width * point_step = {msg.width * point_step}')
+    expected = msg.height * row_step
+    if len(data) != expected:
+        raise PointCloudFormatError(f'data has {len(data)} bytes, expected {expected} '
+                                    f'(height {msg.height} * row_step {row_step})')
+    buffer = np.frombuffer(data, dtype=np.uint8)
+    if row_step != msg.width * point_step:
+        buffer = buffer.reshape(msg.height, row_step)[:, :msg.width * point_step].copy()
+    points = np.frombuffer(buffer.tobytes() if not buffer.flags.c_contiguous else buffer,
+                           dtype=dtype, count=count)
+    return points.astype(_native(dtype))
+
+
+def _native(dtype: np.dtype) -> np.dtype:
+    """Packed native-order copy of a structured dtype (fields kept, padding dropped)."""
+    return np.dtype([(name, dtype.fields[name][0].newbyteorder('=')) for name in dtype.names])
+
+
+def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
+                   header=None) -> PointCloud2:
+    """PointCloud2 (height 1, packed little-endian fields) from a 1-D structured array or a
+    mapping name -> 1-D array; int64 values must fit INT32, bool becomes UINT8."""
+    if not isinstance(array, np.ndarray):
+        columns = {name: np.asarray(values) for name, values in array.items()}
+        lengths = {len(v) for v in columns.values()}
+        if len(lengths) > 1:
+            raise PointCloudFormatError(f'columns have different lengths {sorted(lengths)}')
+        structured = np.zeros(lengths.pop() if lengths else 0,
+                              dtype=[(n, _field_dtype(n, v)) for n, v in columns.items()])
+        for name, values in columns.items():
+            structured[name] = values
+        array = structured
+    formats, fields, offset = [], [], 0
+    for name in array.dtype.names:
+        dtype = _field_dtype(name, array[name])
+        formats.append((name, dtype))
+        fields.append(PointField(name=name, offset=offset, count=1,
+                                 datatype=_DATATYPE_OF[(dtype.kind, dtype.itemsize)]))
+        offset += dtype.itemsize
+    packed = np.empty(len(array), dtype=formats)
+    for name, _ in formats:
+        packed[name] = array[name]
+    floats = [name for name, dtype in formats if dtype.kind == 'f']
+    msg = PointCloud2(height=1, width=len(array), fields=fields, is_bigendian=False,
+                      point_step=offset, row_step=offset * len(array),
+                      is_dense=not any(np.isnan(packed[n]).any() for n in floats))
+    if header is not None:
+        msg.header = header
+    msg.data = packed.tobytes()
+    return msg
+
+
+def _field_dtype(name: str, values: np.ndarray) -> np.dtype:
+    dtype = np.asarray(values).dtype
+    if dtype.kind == 'b':
+        return np.dtype('<u1')
+    if dtype.kind in 'iu' and dtype.itemsize == 8:
+        values = np.asarray(values)
+        info = np.iinfo(np.int32)
+        if values.size and (values.min() < info.min or values.max() > info.max):
+            raise PointCloudFormatError(f'field {name!r}: int64 values do not fit INT32')
+        return np.dtype('<i4')
+    if dtype.kind == 'f' and dtype.itemsize not in (4, 8):
+        return np.dtype('<f8')
+    if (dtype.kind, dtype.itemsize) not in _DATATYPE_OF:
+        raise PointCloudFormatError(f'field {name!r}: dtype {dtype} has no PointField datatype')
+    return dtype.newbyteorder('<')
+
+
+def fields_of(msg: PointCloud2) -> tuple[str, ...]:
+    """The field names of a cloud."""
+    return tuple(field.name for field in msg.fields)

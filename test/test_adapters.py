@@ -1,0 +1,103 @@
+"""msg_adapters inputs/outputs on real message classes: hand-computed values, fallbacks, errors."""
+import numpy as np
+import pytest
+from geometry_msgs.msg import Pose, PoseArray
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+from data_association_ros import NEW, UNASSOCIATED, Association, InvalidInputError, RobotPose
+from data_association_ros.core.initialisation import observations_in_map
+from msg_adapters import (cloud_to_array, correspondences_cloud, detect_model,
+                          joint_covariance_from_array, landmarks_from_cloud,
+                          landmarks_from_pose_array, new_landmarks_cloud, observations_from_cloud,
+                          pose_from_odometry)
+from ros_harness import cloud, odometry
+
+
+def test_pose_from_odometry_yaw_and_covariance_block():
+    cov = np.array([[0.1, 0.01, 0.02], [0.01, 0.2, 0.03], [0.02, 0.03, 0.05]])
+    pose = pose_from_odometry(odometry(1.5, -2.0, 2.5, cov, 0.0))
+    np.testing.assert_allclose(pose.mean, [1.5, -2.0, 2.5])
+    np.testing.assert_allclose(pose.covariance, cov)
+
+
+def test_pose_from_odometry_rejects_a_zero_quaternion():
+    msg = odometry(0, 0, 0, np.eye(3), 0.0)
+    msg.pose.pose.orientation.w = 0.0
+    with pytest.raises(InvalidInputError, match='orientation'):
+        pose_from_odometry(msg)
+
+
+def test_landmarks_from_cloud_with_and_without_covariance_fields():
+    with_cov = landmarks_from_cloud(cloud({'id': [4, 9], 'x': [1, 2], 'y': [3, 4],
+                                           'cov_xx': [0.5, 0.25], 'cov_xy': [0.1, 0.0],
+                                           'cov_yy': [0.5, 1.0]}, 0.0), 0.01)
+    np.testing.assert_array_equal(with_cov.ids, [4, 9])
+    np.testing.assert_allclose(with_cov.covariances[0], [[0.5, 0.1], [0.1, 0.5]], rtol=1e-6)
+    plain = landmarks_from_cloud(cloud({'id': [4], 'x': [1], 'y': [3]}, 0.0), 0.3)
+    np.testing.assert_allclose(plain.covariances[0], np.eye(2) * 0.3)
+    with pytest.raises(InvalidInputError, match="missing field 'id'"):
+        landmarks_from_cloud(cloud({'x': [1], 'y': [3]}, 0.0), 0.3)
+
+
+def test_landmarks_from_pose_array():
+    msg = PoseArray(poses=[Pose(), Pose()])
+    msg.poses[1].position.x, msg.poses[1].position.y = 2.0, -1.0
+    landmarks = landmarks_from_pose_array(msg, 0.2)
+    np.testing.assert_array_equal(landmarks.ids, [0, 1])
+    np.testing.assert_allclose(landmarks.means, [[0, 0], [2, -1]])
+    np.testing.assert_allclose(landmarks.covariances[1], np.eye(2) * 0.2)
+
+
+def test_observations_fall_back_to_observation_noise():
+    rb = observations_from_cloud(cloud({'range': [2.0], 'bearing': [0.5]}, 0.0), 'range_bearing',
+                                 [0.04, 0.001])
+    np.testing.assert_allclose(rb.covariances[0], np.diag([0.04, 0.001]))
+    given = observations_from_cloud(cloud({'range': [2.0], 'bearing': [0.5], 'var_range': [0.09],
+                                           'var_bearing': [0.0004]}, 0.0), 'range_bearing', [1.0])
+    np.testing.assert_allclose(given.covariances[0], np.diag([0.09, 0.0004]), rtol=1e-6)
+    with pytest.raises(InvalidInputError, match='observation_noise'):
+        observations_from_cloud(cloud({'x': [1.0], 'y': [0.5]}, 0.0), 'point_map', [1, 2, 3])
+
+
+@pytest.mark.parametrize('fields,frames,model', [
+    (('range', 'bearing'), ('base', 'map'), 'range_bearing'),
+    (('x', 'y', 'width', 'height', 'score'), ('cam', 'cam'), 'box'),
+    (('x', 'y', 'cov_xx'), ('map', 'map'), 'point_map'),
+    (('x', 'y'), ('base_link', 'map'), 'point_robot'),
+])
+def test_detect_model(fields, frames, model):
+    assert detect_model(fields, *frames) == model
+
+
+def test_detect_model_without_usable_fields():
+    with pytest.raises(InvalidInputError, match='cannot tell'):
+        detect_model(('intensity',), 'a', 'a')
+
+
+def test_joint_covariance_from_layout_and_from_square_length():
+    matrix = np.arange(9.0).reshape(3, 3)
+    msg = Float64MultiArray(data=matrix.ravel().tolist())
+    np.testing.assert_array_equal(joint_covariance_from_array(msg), matrix)
+    msg.layout.dim = [MultiArrayDimension(size=3, stride=9), MultiArrayDimension(size=3, stride=3)]
+    np.testing.assert_array_equal(joint_covariance_from_array(msg), matrix)
+    with pytest.raises(InvalidInputError, match='not a square'):
+        joint_covariance_from_array(Float64MultiArray(data=[1.0, 2.0]))
+
+
+def test_output_clouds_carry_assignment_nis_and_inverse_model_covariance():
+    from data_association_ros import Observations
+    observations = Observations([[2.0, 0.0], [1.0, np.pi / 2]], [np.diag([0.01, 0.0004])] * 2,
+                                'range_bearing')
+    pose = RobotPose([1.0, 1.0, 0.0], np.diag([0.0, 0.0, 0.01]))
+    positions, covariances = observations_in_map(observations, pose)
+    np.testing.assert_allclose(positions, [[3.0, 1.0], [1.0, 2.0]], atol=1e-12)
+    # first: along x at 2 m; var_x = var_range, var_y = r^2 (var_bearing + var_yaw)
+    np.testing.assert_allclose(covariances[0], np.diag([0.01, 4 * (0.0004 + 0.01)]), atol=1e-12)
+    result = Association(np.array([NEW, UNASSOCIATED]), np.array([np.nan, np.nan]))
+    points = cloud_to_array(correspondences_cloud(None, result, positions))
+    np.testing.assert_array_equal(points['landmark'], [NEW, UNASSOCIATED])
+    new = cloud_to_array(new_landmarks_cloud(None, result, positions, covariances))
+    np.testing.assert_array_equal(new['observation'], [0])
+    np.testing.assert_allclose([new['cov_xx'][0], new['cov_yy'][0]], [0.01, 0.0416], rtol=1e-6)
+    assert new_landmarks_cloud(None, Association(np.array([3]), np.array([1.0])), positions[:1],
+                               covariances[:1]) is None
