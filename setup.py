@@ -1,4 +1,5 @@
 """ament_python build of data_association_ros (also installable with pip)."""
+import os
 from glob import glob
 
 from setuptools import find_packages, setup
@@ -15,9 +16,11 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
+        *[('share/' + package_name + '/' + bag, glob(bag + '/*'))
+          for bag in glob('bags/*') if os.path.isdir(bag)],
     ],
     python_requires='>=3.10',
-    install_requires=['setuptools', 'numpy', 'scipy'],
+    install_requires=['setuptools', 'numpy', 'scipy', 'mcap', 'pyyaml'],
     zip_safe=True,
     maintainer='data_association_ros developers',
     maintainer_email='dev@data-association-ros.invalid',
@@ -28,6 +31,9 @@ setup(
         'console_scripts': [
             'association_node = data_association_ros.node:main',
             'da_demo = data_association_ros.demo:main',
+            'da_bag_replay = data_association_ros.bag.replay:main',
+            'da_bag_eval = data_association_ros.bag.evaluate:main',
+            'da_make_bags = data_association_ros.bag.make_bags:main',
         ],
     },
 )

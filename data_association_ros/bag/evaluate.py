@@ -1,0 +1,168 @@
+"""da_bag_eval: score association answers against a bag's ground truth.
+
+    da_bag_eval BAG                 every applicable algorithm through the live node (replay)
+    da_bag_eval BAG --offline       the same pipeline on the bag without DDS (fast, for sweeps)
+    da_bag_eval BAG OUT             score a recording made by da_bag_replay
+
+Scores: pairing precision and recall, correct and false new-landmark events, clutter accepted
+as a pair, answered messages, latency (median/p99, live only) and, offline, scans per second.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+
+from msg_adapters import cloud_to_array
+
+from ..pipeline import stamp_ns
+from . import topics
+from .offline import node_config, run_offline, truth_by_stamp
+from .parameter_arguments import parse_assignments
+from .reader import BagError, BagReader
+from .scoring import Score
+
+DEFAULT_ALGORITHMS = ('euclidean_nn', 'mahalanobis_nn', 'maximum_likelihood', 'gnn', 'jcbb')
+
+
+def bag_algorithms(bag: Path) -> tuple[str, ...]:
+    """The algorithms a bag's metadata names as applicable (all point algorithms if none)."""
+    from .make_bags import ALGORITHMS_KEY
+    from .rosbag2_metadata import read_metadata
+    if (Path(bag) / 'metadata.yaml').is_file():
+        custom = read_metadata(Path(bag)).get('custom_data') or {}
+        if custom.get(ALGORITHMS_KEY):
+            return tuple(custom[ALGORITHMS_KEY].split(','))
+    return DEFAULT_ALGORITHMS
+
+
+def read_truth(bag: Path) -> tuple[BagReader, dict[int, np.ndarray]]:
+    """The reader and {stamp ns: true assignment}; BagError when the bag cannot be scored."""
+    reader = BagReader(bag)
+    reader.require([topics.OBSERVATIONS, topics.GROUND_TRUTH])
+    truth = truth_by_stamp((m.topic, m.msg) for m in reader.messages([topics.GROUND_TRUTH]))
+    return reader, truth
+
+
+def score_recording(truth: dict[int, np.ndarray], recording: BagReader) -> Score:
+    """Score /correspondences of a recording; latency = answer log time - observation log
+    time (both wall clock in a da_bag_replay recording)."""
+    sent: dict[int, int] = {}
+    answers: dict[int, tuple[np.ndarray, int]] = {}
+    for message in recording.messages([topics.OBSERVATIONS, topics.CORRESPONDENCES]):
+        stamp = stamp_ns(message.msg.header)
+        if message.topic == topics.OBSERVATIONS:
+            sent[stamp] = message.log_time_ns
+        else:
+            answers[stamp] = (cloud_to_array(message.msg)['landmark'].astype(np.int64),
+                              message.log_time_ns)
+    score = Score()
+    for stamp, true in sorted(truth.items()):
+        answer, received = answers.get(stamp, (None, None))
+        latency = (received - sent[stamp]) / 1e6 if answer is not None and stamp in sent \
+            else None
+        score.add(true, answer, latency)
+    return score
+
+
+def evaluate_offline(bag: Path, algorithm: str, overrides: dict[str, Any]) -> dict[str, Any]:
+    """Score of `algorithm` run offline on `bag`, with scans per second."""
+    reader, truth = read_truth(bag)
+    present = [t for t in topics.INPUT_TOPICS if t in reader.topics]
+    messages = [(m.topic, m.msg) for m in reader.messages(present)]
+    started = time.perf_counter()
+    answers = run_offline(messages, node_config(algorithm, overrides))
+    elapsed = time.perf_counter() - started
+    score = Score()
+    for stamp, true in sorted(truth.items()):
+        score.add(true, answers.get(stamp))
+    return {**score.summary(), 'scans_per_s': len(truth) / elapsed if elapsed else math.inf}
+
+
+def evaluate_live(bag: Path, algorithm: str, overrides: dict[str, Any], rate: float,
+                  out: Optional[Path] = None) -> dict[str, Any]:
+    """Score of `algorithm` through the live node (da_bag_replay); recording kept in `out`."""
+    from .replay import replay, write_recording
+    _, truth = read_truth(bag)
+    node_config(algorithm, overrides)  # check the parameters before starting anything
+    result = replay(bag, algorithm, overrides, rate, progress=True)
+    with tempfile.TemporaryDirectory() as scratch:
+        target = out or Path(scratch) / 'recording'
+        write_recording(target, result)
+        summary = score_recording(truth, BagReader(target)).summary()
+    summary['node_alive'] = result.node_alive
+    return summary
+
+
+COLUMNS = (('algorithm', 'algorithm', 20, '{}'), ('pair_precision', 'precision', 10, '{:.3f}'),
+           ('pair_recall', 'recall', 8, '{:.3f}'), ('new_correct', 'new ok', 8, '{}'),
+           ('new_false', 'new false', 10, '{}'), ('clutter_paired', 'clutter paired', 15, '{}'),
+           ('answered', 'answered', 10, '{}'))
+LIVE_COLUMNS = (('latency_median_ms', 'latency p50 ms', 15, '{:.2f}'),
+                ('latency_p99_ms', 'p99 ms', 8, '{:.2f}'))
+OFFLINE_COLUMNS = (('scans_per_s', 'scans/s', 9, '{:.0f}'),)
+
+
+def format_table(rows: list[dict[str, Any]], offline: bool) -> str:
+    """A plain-text table, one row per algorithm (first column left-aligned)."""
+    columns = COLUMNS + (OFFLINE_COLUMNS if offline else LIVE_COLUMNS)
+
+    def line(cells):
+        return ''.join(cell.ljust(width) if k == 0 else cell.rjust(width)
+                       for k, (cell, (_, _, width, _)) in enumerate(zip(cells, columns)))
+    lines = [line([title for _, title, _, _ in columns])]
+    for row in rows:
+        row = {**row, 'answered': f'{row["answered"]}/{row["messages"]}',
+               'clutter_paired': f'{row["clutter_paired"]}/{row["clutter"]}'}
+        lines.append(line([fmt.format(row[key]) for key, _, _, fmt in columns]))
+    return '\n'.join(lines)
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog='da_bag_eval', description=__doc__.splitlines()[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog='\n'.join(__doc__.splitlines()[2:]))
+    parser.add_argument('bag', type=Path, help='bag with inputs and /ground_truth/correspondences')
+    parser.add_argument('out', type=Path, nargs='?', help='a da_bag_replay recording to score')
+    parser.add_argument('--algorithms', help='comma-separated (default: those the bag names)')
+    parser.add_argument('--offline', action='store_true', help='run the pipeline without DDS')
+    parser.add_argument('--json', action='store_true', help='print JSON instead of a table')
+    parser.add_argument('--rate', type=float, default=1.0, help='live playback rate factor')
+    parser.add_argument('-p', dest='parameters', action='append', default=[],
+                        metavar='NAME:=VALUE', help='node parameter (repeatable)')
+    args = parser.parse_args(argv)
+    try:
+        from .replay import bag_parameters
+        overrides = {**bag_parameters(args.bag), **parse_assignments(args.parameters)}
+        if args.out is not None:
+            _, truth = read_truth(args.bag)
+            rows = [{'algorithm': str(args.out), **score_recording(
+                truth, BagReader(args.out)).summary()}]
+        else:
+            algorithms = args.algorithms.split(',') if args.algorithms else \
+                list(bag_algorithms(args.bag))
+            rows = []
+            for algorithm in algorithms:
+                summary = evaluate_offline(args.bag, algorithm, overrides) if args.offline \
+                    else evaluate_live(args.bag, algorithm, overrides, args.rate)
+                rows.append({'algorithm': algorithm, **summary})
+    except (BagError, ValueError) as error:
+        print(f'da_bag_eval: {error}', file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(rows, indent=2, default=float))
+    else:
+        print(f'{args.bag} ({"offline" if args.offline else "live"})')
+        print(format_table(rows, args.offline))
+    return 0 if all(row.get('node_alive', True) for row in rows) else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

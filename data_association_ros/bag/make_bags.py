@@ -1,0 +1,56 @@
+"""da_make_bags: regenerate the simulated bags deterministically (bags/<scenario>/).
+
+Messages are built from fixed seeds and serialised by rclpy; its CDR leaves alignment padding
+uninitialised, so two runs give the same messages when deserialised, not always the same bytes
+(the tests compare deserialised messages).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+
+from .scenarios import SCENARIOS
+from .topics import scan_messages
+from .writer import BagWriter
+
+PARAMETERS_KEY = 'data_association_ros.parameters'
+ALGORITHMS_KEY = 'data_association_ros.algorithms'
+DEFAULT_DIRECTORY = Path(__file__).resolve().parents[2] / 'bags'
+
+
+def make_bag(name: str, directory: Path) -> Path:
+    """Write bags/<name>/ (metadata.yaml + <name>_0.mcap) from scenario `name`."""
+    scenario = SCENARIOS[name]
+    target = directory / name
+    if target.exists():
+        shutil.rmtree(target)
+    custom = {PARAMETERS_KEY: json.dumps(scenario.parameters, sort_keys=True),
+              ALGORITHMS_KEY: ','.join(scenario.algorithms)}
+    with BagWriter(target, name, custom_data=custom) as bag:
+        for scan in scenario.generate():
+            for topic, msg, log_time in scan_messages(scan):
+                bag.write(topic, msg, log_time)
+    return target
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog='da_make_bags', description=__doc__.splitlines()[0])
+    parser.add_argument('names', nargs='*', default=list(SCENARIOS),
+                        help=f'scenarios (default: all of {", ".join(SCENARIOS)})')
+    parser.add_argument('--out', type=Path, default=DEFAULT_DIRECTORY,
+                        help='directory of the bags (default: the repository\'s bags/)')
+    args = parser.parse_args(argv)
+    for name in args.names:
+        if name not in SCENARIOS:
+            parser.error(f'unknown scenario {name!r} (valid: {", ".join(SCENARIOS)})')
+        path = make_bag(name, args.out)
+        size = sum(f.stat().st_size for f in path.iterdir())
+        print(f'{path}: {size / 1e6:.2f} MB')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,45 @@
+"""Offline runs: bag messages through AssociationPipeline, the node's own code, without DDS."""
+from __future__ import annotations
+
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from msg_adapters import cloud_to_array
+
+from ..core import InvalidInputError
+from ..node_parameters import BY_NAME, NODE_PARAMETERS
+from ..pipeline import AssociationPipeline, stamp_ns
+from . import topics
+
+
+def node_config(algorithm: str, overrides: Mapping[str, Any] = ()) -> dict[str, Any]:
+    """The node's parameter values: defaults, then `overrides`, then `algorithm` (all checked)."""
+    config = {p.name: p.default for p in NODE_PARAMETERS}
+    for name, value in {**dict(overrides), 'algorithm': algorithm}.items():
+        if name not in BY_NAME:
+            raise InvalidInputError(f'{name}: not a parameter of association_node')
+        config[name] = BY_NAME[name].check(value)
+    return config
+
+
+def run_offline(messages: Iterable[tuple[str, Any]], config: dict[str, Any]) -> dict[int, Any]:
+    """Feed (topic, message) pairs in order to a pipeline; {observation stamp ns: assignment}."""
+    pipeline = AssociationPipeline(config)
+    handlers = {topics.LANDMARKS: pipeline.on_landmarks, topics.ROBOT_POSE: pipeline.on_robot_pose,
+                topics.STATE_COVARIANCE: pipeline.on_state_covariance}
+    answers: dict[int, Any] = {}
+    for topic, msg in messages:
+        if topic == topics.OBSERVATIONS:
+            answer = pipeline.answer(msg)
+            if answer is not None:
+                answers[stamp_ns(msg.header)] = answer.association.assignment
+        elif topic in handlers:
+            handlers[topic](msg)
+    return answers
+
+
+def truth_by_stamp(messages: Iterable[tuple[str, Any]]) -> dict[int, np.ndarray]:
+    """{observation stamp ns: true assignment} from /ground_truth/correspondences messages."""
+    return {stamp_ns(msg.header): cloud_to_array(msg)['landmark'].astype(np.int64)
+            for topic, msg in messages if topic == topics.GROUND_TRUTH}

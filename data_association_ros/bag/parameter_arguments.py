@@ -1,0 +1,44 @@
+"""`-p name:=value` arguments of the bag tools <-> checked node parameter values."""
+from __future__ import annotations
+
+from typing import Any, Iterable, Mapping
+
+import yaml
+
+from ..core import InvalidInputError
+from ..node_parameters import BY_NAME
+
+
+def parse_assignments(assignments: Iterable[str]) -> dict[str, Any]:
+    """{'name': value} from ['name:=value', ...]; values read as YAML (true, 0.5, [1.0, 2.0]),
+    each checked against the node's parameter declaration."""
+    values: dict[str, Any] = {}
+    for assignment in assignments:
+        name, separator, text = assignment.partition(':=')
+        if not separator:
+            raise InvalidInputError(f'-p {assignment}: expected name:=value')
+        if name not in BY_NAME:
+            raise InvalidInputError(f'-p {assignment}: association_node has no parameter {name!r}')
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            value = text
+        values[name] = BY_NAME[name].check(value)
+    return values
+
+
+def ros_arguments(values: Mapping[str, Any]) -> list[str]:
+    """['-p', 'name:=value', ...] with each value in the type the node declares."""
+    arguments = []
+    for name, value in values.items():
+        default = BY_NAME[name].default
+        if isinstance(default, bool):
+            text = 'true' if value else 'false'
+        elif isinstance(default, float):
+            text = repr(float(value))
+        elif isinstance(default, list):
+            text = '[' + ', '.join(repr(float(v)) for v in value) + ']'
+        else:
+            text = str(value)
+        arguments += ['-p', f'{name}:={text}']
+    return arguments

@@ -1,0 +1,194 @@
+"""da_bag_replay: play a bag's inputs through a live association_node and record its answers.
+
+Starts the node as a separate process with the given parameters, publishes the bag's input
+topics with the recorded timing scaled by --rate, records every /correspondences and
+/new_landmarks message (log time = arrival) together with the observations as sent (log time =
+send) into OUT, waits for the last answer and exits non-zero if the node died or answers are
+missing.  DDS stays on loopback with a domain id of its own.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional
+
+from .parameter_arguments import parse_assignments, ros_arguments
+from .reader import BagError, BagReader
+from .ros_environment import use_loopback_dds
+from . import topics
+
+WAIT_FOR_NODE_S = 30.0
+WAIT_FOR_ANSWERS_S = 10.0
+SETTLE_S = 1.0
+
+
+@dataclass
+class ReplayResult:
+    """What a replay sent and received."""
+
+    sent: int = 0
+    answered: int = 0
+    node_alive: bool = True
+    node_log: str = ''
+    recorded: list = field(default_factory=list)  # (topic, msg, log time ns)
+
+    @property
+    def ok(self) -> bool:
+        return self.node_alive and self.answered >= self.sent
+
+
+def _progress(done: int, total: int) -> None:
+    if sys.stderr.isatty():
+        width = 30
+        filled = int(width * done / max(total, 1))
+        sys.stderr.write(f'\r[{"#" * filled}{"." * (width - filled)}] {done}/{total}')
+        if done == total:
+            sys.stderr.write('\n')
+        sys.stderr.flush()
+
+
+def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 1.0,
+           progress: bool = True) -> ReplayResult:
+    """Play `bag` into a fresh association_node; the answers recorded (see module doc)."""
+    use_loopback_dds()
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import PointCloud2
+
+    from .message_types import message_class
+
+    reader = BagReader(bag)
+    reader.require([topics.LANDMARKS, topics.OBSERVATIONS])
+    present = [t for t in topics.INPUT_TOPICS if t in reader.topics]
+    inputs = [(m.topic, m.msg, m.log_time_ns) for m in reader.messages(present)]
+    qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    log = tempfile.TemporaryFile()
+    command = [sys.executable, '-m', 'data_association_ros.node', '--ros-args',
+               '-p', f'algorithm:={algorithm}', *ros_arguments(parameters),
+               '-p', 'qos_depth:=1000']
+    process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node('da_bag_replay', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    result = ReplayResult()
+
+    def record(topic):
+        return lambda msg: result.recorded.append((topic, msg, time.time_ns()))
+    for topic in topics.OUTPUT_TOPICS:
+        node.create_subscription(PointCloud2, topic, record(topic), qos)
+    publishers = {t: node.create_publisher(message_class(reader.topics[t]), t, qos)
+                  for t in present}
+    try:
+        deadline = time.monotonic() + WAIT_FOR_NODE_S
+        while not (all(p.get_subscription_count() > 0 for p in publishers.values())
+                   and node.count_publishers(topics.CORRESPONDENCES) > 0):
+            if process.poll() is not None or time.monotonic() > deadline:
+                raise BagError('association_node did not come up')
+            executor.spin_once(timeout_sec=0.05)
+        # Our writers see the node's readers; give the readers time to see our writers too
+        # (messages sent before that are lost with volatile durability).
+        settle = time.monotonic() + SETTLE_S
+        while time.monotonic() < settle:
+            executor.spin_once(timeout_sec=0.05)
+        start_wall = time.monotonic()
+        first_log = inputs[0][2] if inputs else 0
+        total = sum(1 for t, _, _ in inputs if t == topics.OBSERVATIONS)
+        for topic, msg, log_time in inputs:
+            if rate > 0:
+                target = start_wall + (log_time - first_log) / 1e9 / rate
+                while (remaining := target - time.monotonic()) > 0:
+                    executor.spin_once(timeout_sec=min(remaining, 0.01))
+            if topic == topics.OBSERVATIONS:
+                result.recorded.append((topic, msg, time.time_ns()))
+                result.sent += 1
+                if progress:
+                    _progress(result.sent, total)
+            publishers[topic].publish(msg)
+            if process.poll() is not None:
+                break
+        deadline = time.monotonic() + WAIT_FOR_ANSWERS_S
+        while time.monotonic() < deadline and process.poll() is None:
+            result.answered = sum(1 for t, _, _ in result.recorded
+                                  if t == topics.CORRESPONDENCES)
+            if result.answered >= result.sent:
+                break
+            executor.spin_once(timeout_sec=0.05)
+        result.answered = sum(1 for t, _, _ in result.recorded if t == topics.CORRESPONDENCES)
+    finally:
+        result.node_alive = process.poll() is None
+        executor.remove_node(node)
+        node.destroy_node()
+        executor.shutdown()
+        rclpy.shutdown(context=context)
+        if result.node_alive:
+            process.send_signal(signal.SIGINT)
+            try:
+                process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+        log.seek(0)
+        result.node_log = log.read().decode(errors='replace')
+        log.close()
+    return result
+
+
+def write_recording(out: Path, result: ReplayResult) -> None:
+    """OUT: the observations as sent and the node's outputs as received, in a bag."""
+    from .writer import BagWriter
+    with BagWriter(out) as bag:
+        for topic, msg, log_time in sorted(result.recorded, key=lambda r: r[2]):
+            bag.write(topic, msg, log_time)
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog='da_bag_replay', description=__doc__.splitlines()[0])
+    parser.add_argument('bag', type=Path)
+    parser.add_argument('--algorithm', required=True)
+    parser.add_argument('--out', type=Path, required=True, help='output bag directory')
+    parser.add_argument('--rate', type=float, default=1.0,
+                        help='playback rate factor (0: as fast as the answers allow)')
+    parser.add_argument('-p', dest='parameters', action='append', default=[],
+                        metavar='NAME:=VALUE', help='node parameter (repeatable)')
+    args = parser.parse_args(argv)
+    try:
+        parameters = {**bag_parameters(args.bag), **parse_assignments(args.parameters)}
+        result = replay(args.bag, args.algorithm, parameters, args.rate)
+    except (BagError, ValueError) as error:
+        print(f'da_bag_replay: {error}', file=sys.stderr)
+        return 2
+    write_recording(args.out, result)
+    print(f'{args.out}: {result.sent} observation messages sent, {result.answered} answered')
+    if not result.node_alive:
+        print(f'da_bag_replay: association_node died:\n{result.node_log[-2000:]}', file=sys.stderr)
+        return 1
+    if result.answered < result.sent:
+        print(f'da_bag_replay: {result.sent - result.answered} answers missing; node log:\n'
+              f'{result.node_log[-2000:]}', file=sys.stderr)
+        return 1
+    return 0
+
+
+def bag_parameters(bag: Path) -> dict[str, Any]:
+    """Node parameters a bag asks for in its metadata custom_data ({} if none)."""
+    import json
+
+    from .make_bags import PARAMETERS_KEY
+    from .rosbag2_metadata import read_metadata
+    if not (Path(bag) / 'metadata.yaml').is_file():
+        return {}
+    custom = read_metadata(Path(bag)).get('custom_data') or {}
+    return json.loads(custom.get(PARAMETERS_KEY, '{}'))
+
+
+if __name__ == '__main__':
+    sys.exit(main())

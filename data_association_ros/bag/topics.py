@@ -1,0 +1,83 @@
+"""The bag topics and the messages of one scan (inputs and ground truth)."""
+from __future__ import annotations
+
+import numpy as np
+from nav_msgs.msg import Odometry
+from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
+
+from msg_adapters import array_to_cloud
+from msg_adapters.outputs import CORRESPONDENCE_DTYPE
+
+from .scenarios import Scan
+
+LANDMARKS = '/landmarks'
+OBSERVATIONS = '/observations'
+ROBOT_POSE = '/robot_pose'
+STATE_COVARIANCE = '/state_covariance'
+GROUND_TRUTH = '/ground_truth/correspondences'
+CORRESPONDENCES = '/correspondences'
+NEW_LANDMARKS = '/new_landmarks'
+INPUT_TOPICS = (LANDMARKS, ROBOT_POSE, STATE_COVARIANCE, OBSERVATIONS)
+OUTPUT_TOPICS = (CORRESPONDENCES, NEW_LANDMARKS)
+INPUT_LEAD_NS = 10_000_000
+"""Map, pose and joint covariance are logged this long before the scan's observations."""
+
+
+def header(time_ns: int, frame: str) -> Header:
+    """A Header stamped `time_ns` in `frame`."""
+    h = Header(frame_id=frame)
+    h.stamp.sec, h.stamp.nanosec = divmod(int(time_ns), 1_000_000_000)
+    return h
+
+
+def _cloud(columns: dict[str, np.ndarray], stamp: int, frame: str, integer=('id',)):
+    n = len(next(iter(columns.values()))) if columns else 0
+    points = np.zeros(n, dtype=[(k, '<i4' if k in integer else '<f4') for k in columns])
+    for k, v in columns.items():
+        points[k] = v
+    return array_to_cloud(points, header(stamp, frame))
+
+
+def odometry_message(mean: np.ndarray, covariance: np.ndarray, time_ns: int,
+                     frame: str = 'map') -> Odometry:
+    """nav_msgs/Odometry with pose (x, y, yaw) and the 3x3 covariance in its 6x6 slots."""
+    msg = Odometry(header=header(time_ns, frame), child_frame_id='base_link')
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(mean[0]), float(mean[1])
+    msg.pose.pose.orientation.z = float(np.sin(mean[2] / 2))
+    msg.pose.pose.orientation.w = float(np.cos(mean[2] / 2))
+    full = np.zeros((6, 6))
+    full[np.ix_([0, 1, 5], [0, 1, 5])] = covariance
+    msg.pose.covariance = full.ravel().tolist()
+    return msg
+
+
+def scan_messages(scan: Scan) -> list[tuple[str, object, int]]:
+    """(topic, message, log time ns) of one scan: inputs first, then observations and truth."""
+    t = scan.time_ns
+    lead = t - INPUT_LEAD_NS
+    columns = {'id': scan.landmark_ids}
+    names = ('x', 'y', 'width', 'height') if scan.landmark_means.shape[1] == 4 else ('x', 'y')
+    for k, name in enumerate(names):
+        columns[name] = scan.landmark_means[:, k]
+    if scan.landmark_covariances is not None:
+        columns['cov_xx'] = scan.landmark_covariances[:, 0, 0]
+        columns['cov_xy'] = scan.landmark_covariances[:, 0, 1]
+        columns['cov_yy'] = scan.landmark_covariances[:, 1, 1]
+    messages = [(LANDMARKS, _cloud(columns, t, scan.map_frame), lead)]
+    if scan.pose is not None:
+        messages.append((ROBOT_POSE, odometry_message(*scan.pose, t, scan.map_frame), lead))
+    if scan.state_covariance is not None:
+        size = scan.state_covariance.shape[0]
+        matrix = Float64MultiArray(data=scan.state_covariance.ravel().tolist())
+        matrix.layout.dim = [MultiArrayDimension(label='rows', size=size, stride=size * size),
+                             MultiArrayDimension(label='cols', size=size, stride=size)]
+        messages.append((STATE_COVARIANCE, matrix, lead))
+    messages.append((OBSERVATIONS, _cloud(scan.observations, t, scan.observation_frame), t))
+    truth = np.zeros(len(scan.truth), dtype=CORRESPONDENCE_DTYPE)
+    truth['observation'] = np.arange(len(scan.truth))
+    truth['landmark'] = scan.truth
+    truth['nis'] = np.nan
+    truth['probability'] = 1.0
+    truth['x'], truth['y'] = scan.truth_xy[:, 0], scan.truth_xy[:, 1]
+    messages.append((GROUND_TRUTH, array_to_cloud(truth, header(t, scan.observation_frame)), t))
+    return messages

@@ -1,0 +1,168 @@
+"""The association node's work without rclpy: input messages in, output messages out.
+
+The node (live) and the bag evaluator (offline) both run this, so they give the same answers.
+It converts each input once on arrival, matches an observation message to the newest landmarks
+not newer than it (within max_landmark_age) and the pose nearest in time (within
+pose_tolerance), calls the core and builds the output messages.  Rejections and skips are
+counted by cause in `statistics` and reported through `warn` (throttled per cause).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Optional
+
+import numpy as np
+from std_msgs.msg import Header
+
+from msg_adapters import (PointCloudFormatError, association_markers, cloud_to_array,
+                          correspondences_cloud, detect_model, joint_covariance_from_array,
+                          landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
+                          observations_from_points, pose_from_odometry)
+
+from .core import Association, InvalidInputError, Landmarks, associate
+from .core.initialisation import observations_in_map
+from .core.models import MODELS
+from .node_parameters import algorithm_arguments
+from .stamped_buffer import StampedBuffer
+from .statistics import AssociationStatistics
+
+NS_PER_S = 1_000_000_000
+INPUT_ERRORS = (InvalidInputError, PointCloudFormatError)
+
+
+def stamp_ns(header) -> int:
+    """A std_msgs/Header stamp in nanoseconds."""
+    return int(header.stamp.sec) * NS_PER_S + int(header.stamp.nanosec)
+
+
+@dataclass(frozen=True)
+class StampedLandmarks:
+    """A landmarks message converted once on arrival."""
+
+    landmarks: Landmarks
+    frame_id: str
+
+
+@dataclass
+class Answer:
+    """The outputs for one observation message (new_landmarks and markers may be None)."""
+
+    correspondences: Any
+    new_landmarks: Optional[Any]
+    markers: Optional[Any]
+    association: Association
+
+
+class AssociationPipeline:
+    """Holds the latest inputs and answers observation messages with `config` (a dict of the
+    node's parameter values, read at each answer so changes apply from the next message)."""
+
+    def __init__(self, config: dict[str, Any],
+                 warn: Callable[[str], None] = lambda text: None) -> None:
+        self.config = config
+        self.warn = warn
+        self.statistics = AssociationStatistics()
+        self.landmark_history: StampedBuffer[StampedLandmarks] = StampedBuffer(50)
+        self.pose_history: StampedBuffer = StampedBuffer(200)
+        self.state_covariance: Optional[np.ndarray] = None
+
+    def _reject(self, counter, cause: str, text: str) -> None:
+        counter[cause] += 1
+        if self.statistics.should_warn(cause, time.monotonic()):
+            self.warn(f'{text} (further {cause!r} warnings throttled)')
+
+    def _invalid(self, topic: str, error: Exception) -> None:
+        self._reject(self.statistics.invalid, topic, f'{topic} message rejected: {error}')
+
+    def on_landmarks(self, msg) -> None:
+        """A sensor_msgs/PointCloud2 of landmarks (boxes when it has width and height)."""
+        try:
+            points = cloud_to_array(msg)
+            box = {'width', 'height'} <= set(points.dtype.names or ())
+            landmarks = landmarks_from_points(points, self.config['default_landmark_covariance'],
+                                              box)
+        except INPUT_ERRORS as error:
+            self._invalid('landmarks', error)
+            return
+        self.landmark_history.add(stamp_ns(msg.header),
+                                  StampedLandmarks(landmarks, msg.header.frame_id))
+
+    def on_pose_array(self, msg) -> None:
+        """A geometry_msgs/PoseArray of landmarks (ids = index)."""
+        try:
+            landmarks = landmarks_from_pose_array(msg, self.config['default_landmark_covariance'])
+        except INPUT_ERRORS as error:
+            self._invalid('landmarks', error)
+            return
+        self.landmark_history.add(stamp_ns(msg.header),
+                                  StampedLandmarks(landmarks, msg.header.frame_id))
+
+    def on_robot_pose(self, msg) -> None:
+        """A nav_msgs/Odometry robot pose in the map frame."""
+        try:
+            pose = pose_from_odometry(msg)
+        except INPUT_ERRORS as error:
+            self._invalid('robot_pose', error)
+            return
+        self.pose_history.add(stamp_ns(msg.header), pose)
+
+    def on_state_covariance(self, msg) -> None:
+        """A std_msgs/Float64MultiArray joint covariance [pose, landmarks...]."""
+        try:
+            self.state_covariance = joint_covariance_from_array(msg)
+        except INPUT_ERRORS as error:
+            self._invalid('state_covariance', error)
+
+    def answer(self, msg) -> Optional[Answer]:
+        """The outputs for an observation PointCloud2, or None when it is skipped or invalid."""
+        started = time.perf_counter()
+        try:
+            return self._answer(msg, started)
+        except INPUT_ERRORS as error:
+            self._invalid('observations', error)
+        except Exception as error:  # never let one message take the node down
+            self._reject(self.statistics.invalid, 'internal_error',
+                         f'observation message dropped by an internal error: {error!r}')
+        return None
+
+    def _answer(self, msg, started: float) -> Optional[Answer]:
+        config = dict(self.config)
+        stamp = stamp_ns(msg.header)
+        item, why = self.landmark_history.latest_not_after(
+            stamp, int(config['max_landmark_age'] * NS_PER_S))
+        if item is None:
+            self._reject(self.statistics.skipped, 'no_landmarks',
+                         f'observation message skipped: landmarks {why}')
+            return None
+        points = cloud_to_array(msg)
+        model = config['measurement_model']
+        if model == 'auto':
+            model = detect_model(points.dtype.names or (), msg.header.frame_id, item.frame_id)
+        pose = None
+        if MODELS[model].needs_pose:
+            pose, why = self.pose_history.nearest(stamp,
+                                                  int(config['pose_tolerance'] * NS_PER_S))
+            if pose is None:
+                self._reject(self.statistics.skipped, 'no_pose',
+                             f'observation message skipped: robot pose {why}')
+                return None
+        observations = observations_from_points(points, model, config['observation_noise'])
+        landmarks = item.landmarks
+        state_covariance = self.state_covariance
+        if state_covariance is not None and \
+                state_covariance.shape[0] != 3 + len(landmarks) * landmarks.dim:
+            state_covariance = None
+        result = associate(landmarks, observations, config['algorithm'], pose=pose,
+                           state_covariance=state_covariance, **algorithm_arguments(config))
+        positions, covariances = observations_in_map(observations, pose)
+        map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id)
+        answer = Answer(
+            correspondences=correspondences_cloud(msg.header, result, positions),
+            new_landmarks=new_landmarks_cloud(map_header, result, positions, covariances),
+            markers=association_markers(map_header, result, positions, landmarks.ids,
+                                        landmarks.means) if config['publish_markers'] else None,
+            association=result)
+        self.statistics.record_answer(result.assignment, (time.perf_counter() - started) * 1e3,
+                                      result.truncated)
+        return answer
