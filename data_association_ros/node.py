@@ -10,7 +10,7 @@ from typing import Any, Optional
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseArray
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
@@ -76,6 +76,8 @@ class AssociationNode(Node):
         self.correspondences_pub = self.create_publisher(PointCloud2, 'correspondences', 10)
         self.new_landmarks_pub = self.create_publisher(PointCloud2, 'new_landmarks', 10)
         self.markers_pub = self.create_publisher(MarkerArray, 'association_markers', 10)
+        self.transform_pub = self.create_publisher(PoseWithCovarianceStamped,
+                                                   'estimated_transform', 10)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.create_timer(config['diagnostics_period'], self.publish_diagnostics)
         self.get_logger().info(f'association_node ready: algorithm {config["algorithm"]}, '
@@ -122,6 +124,8 @@ class AssociationNode(Node):
             self.new_landmarks_pub.publish(answer.new_landmarks)
         if answer.markers is not None:
             self.markers_pub.publish(answer.markers)
+        if answer.transform is not None:
+            self.transform_pub.publish(answer.transform)
 
     def publish_diagnostics(self) -> None:
         """One DiagnosticArray with the algorithm, latency and counters."""

@@ -80,6 +80,8 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
                                             'one_to_one', 'min_innovation_variance')),
     _from_spec(_CORE['time_budget_ms'], default=100.0),
     _from_spec(_CORE['max_nodes']),
+    *(_from_spec(_CORE[name]) for name in ('minimal_iterations', 'transform_ransac',
+                                            'ransac_inlier_threshold')),
     NodeParameter('default_landmark_covariance', 0.01,
                   'variance [m^2] on each axis of landmarks that carry no covariance (PoseArray, '
                   'clouds without cov_* fields); applies from the next landmarks message',

@@ -18,7 +18,7 @@ from std_msgs.msg import Header
 from msg_adapters import (PointCloudFormatError, association_markers, cloud_to_array,
                           correspondences_cloud, detect_model, joint_covariance_from_array,
                           landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
-                          observations_from_points, pose_from_odometry)
+                          observations_from_points, pose_from_odometry, transform_message)
 
 from .core import Association, InvalidInputError, Landmarks, associate
 from .core.initialisation import observations_in_map
@@ -52,6 +52,7 @@ class Answer:
     new_landmarks: Optional[Any]
     markers: Optional[Any]
     association: Association
+    transform: Optional[Any] = None
 
 
 class AssociationPipeline:
@@ -162,7 +163,9 @@ class AssociationPipeline:
             new_landmarks=new_landmarks_cloud(map_header, result, positions, covariances),
             markers=association_markers(map_header, result, positions, landmarks.ids,
                                         landmarks.means) if config['publish_markers'] else None,
-            association=result)
+            association=result,
+            transform=transform_message(msg.header, result.extras['transform'])
+            if 'transform' in result.extras else None)
         self.statistics.record_answer(result.assignment, (time.perf_counter() - started) * 1e3,
                                       result.truncated)
         return answer

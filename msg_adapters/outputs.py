@@ -5,7 +5,7 @@ from typing import Mapping, Optional
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point
+from geometry_msgs.msg import Point, PoseWithCovarianceStamped
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -101,3 +101,16 @@ def diagnostics_message(stamp, node_name: str, values: Mapping[str, object], war
                               values=[KeyValue(key=str(k), value=str(v)) for k, v in
                                       values.items()])
     return DiagnosticArray(header=Header(stamp=stamp), status=[status])
+
+
+def transform_message(header, transform) -> PoseWithCovarianceStamped:
+    """geometry_msgs/PoseWithCovarianceStamped of a rigid SE(2) transform (x, y, yaw) with its
+    3x3 covariance in the (x, y, yaw) slots of the 6x6 (DESIGN.md 4: estimated_transform)."""
+    msg = PoseWithCovarianceStamped(header=header)
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(transform.x), float(transform.y)
+    msg.pose.pose.orientation.z = float(np.sin(transform.yaw / 2))
+    msg.pose.pose.orientation.w = float(np.cos(transform.yaw / 2))
+    covariance = np.zeros((6, 6))
+    covariance[np.ix_([0, 1, 5], [0, 1, 5])] = transform.covariance
+    msg.pose.covariance = covariance.ravel().tolist()
+    return msg

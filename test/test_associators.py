@@ -179,7 +179,7 @@ def test_empty_sets(algorithm):
 
 def test_every_algorithm_is_registered():
     assert set(available_algorithms()) == {'euclidean_nn', 'mahalanobis_nn', 'maximum_likelihood',
-                                           'gnn', 'jcbb', 'iou'}
+                                           'gnn', 'jcbb', 'jcbb_points', 'iou'}
 
 
 @pytest.mark.parametrize('algorithm', ['euclidean_nn', 'mahalanobis_nn', 'maximum_likelihood',

@@ -98,3 +98,22 @@ def test_node_budget_cuts_search_short_and_flags_it():
     cut = associate(landmarks, observations, 'jcbb', pose=pose, max_nodes=3)
     assert cut.truncated and cut.extras['search_nodes'] <= 3
     assert (cut.assignment >= 0).sum() <= (full.assignment >= 0).sum()
+
+
+@pytest.mark.parametrize('block', range(10))
+def test_fast_jcbb_equals_the_straightforward_reference(block):
+    """2,000 random problems (200 per block): clutter, near-duplicates, correlated pose error,
+    half with a full state covariance."""
+    from reference_jcbb import reference_jcbb
+    for seed in range(5000 + block * 200, 5000 + (block + 1) * 200):
+        rng = np.random.default_rng(seed)
+        landmarks, observations, pose, state_covariance, _ = random_range_bearing_problem(
+            rng, n_landmarks=int(rng.integers(2, 10)), n_seen=int(rng.integers(1, 7)),
+            n_clutter=int(rng.integers(0, 3)), duplicates=int(rng.integers(0, 4)),
+            joint=bool(seed % 2))
+        expected, expected_nis, _ = reference_jcbb(landmarks, observations, pose,
+                                                   state_covariance)
+        result = associate(landmarks, observations, 'jcbb', pose=pose,
+                           state_covariance=state_covariance)
+        np.testing.assert_array_equal(result.assignment, expected, err_msg=f'seed {seed}')
+        assert result.extras['joint_nis'] == pytest.approx(expected_nis, rel=1e-7, abs=1e-9)

@@ -305,3 +305,22 @@ def test_executable_answers_over_dds():
         process.terminate()
         output = process.communicate(timeout=10)[0].decode(errors='replace')
     assert 'algorithm jcbb' in output
+
+
+def test_jcbb_points_publishes_the_estimated_transform(graph):
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+    transforms = graph.collect(PoseWithCovarianceStamped, 'estimated_transform')
+    assert set_parameters(graph, algorithm='jcbb_points')[0].successful
+    corners = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0], [1.0, 0.0], [1.0, 1.0]])
+    publish_map(graph, stamp=1.0, ids=np.arange(6), means=corners, variance=0.01)
+    settle(graph)
+    yaw, shift = 0.05, np.array([0.1, -0.05])
+    c, s = np.cos(yaw), np.sin(yaw)
+    scan = corners @ np.array([[c, -s], [s, c]]).T + shift  # the object moved
+    reply = correspondences(exchange(graph, cloud({'x': scan[:, 0], 'y': scan[:, 1]}, 1.0)))
+    np.testing.assert_array_equal(reply['landmark'], np.arange(6))
+    assert graph.spin_until(lambda: len(transforms) == 1)
+    pose = transforms[0].pose.pose
+    # scan -> boundary is the inverse motion
+    assert 2 * np.arctan2(pose.orientation.z, pose.orientation.w) == pytest.approx(-yaw, abs=1e-3)
+    assert transforms[0].header.stamp == graph.received['correspondences'][-1].header.stamp

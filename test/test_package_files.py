@@ -25,6 +25,18 @@ def test_readme_documents_every_parameter():
         assert f'| `{parameter.name}` |' in readme, parameter.name
 
 
+def test_generated_parameter_docs_are_current():
+    """config/association.yaml and the README table are what scripts/update_parameter_docs.py
+    writes from the declarations."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location('update_parameter_docs',
+                                                  ROOT / 'scripts' / 'update_parameter_docs.py')
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert (ROOT / 'config' / 'association.yaml').read_text() == module.config_text()
+    assert module.readme_table() in (ROOT / 'README.md').read_text()
+
+
 def test_package_xml_and_setup_cfg():
     package = ET.parse(ROOT / 'package.xml').getroot()
     assert package.get('format') == '3'
