@@ -269,13 +269,36 @@ def test_ransac_is_deterministic_for_a_seed():
     np.testing.assert_array_equal(first.inliers, second.inliers)
 
 
-def test_ransac_stops_early_when_every_pair_is_an_inlier():
+def test_ransac_stops_early_when_every_pair_is_an_inlier(monkeypatch):
     rng = np.random.default_rng(0)
     source = rng.uniform(-5, 5, (40, 2))
     target = transform_points(source, 1.0, 2.0, 0.3)
-    # 10^9 hypotheses would take hours; the first chunk already explains every pair
-    estimate = ransac_rigid_transform(source, target, iterations=10 ** 9)
+    draws = []
+    real_default_rng = np.random.default_rng
+
+    class CountingGenerator:
+        def __init__(self, seed):
+            self.generator = real_default_rng(seed)
+
+        def integers(self, *args, **kwargs):
+            draws.append(kwargs.get('size'))
+            return self.generator.integers(*args, **kwargs)
+    monkeypatch.setattr(np.random, 'default_rng', CountingGenerator)
+    estimate = ransac_rigid_transform(source, target, iterations=10 ** 6)
     assert estimate.inliers.all() and abs(estimate.yaw - 0.3) < 1e-9
+    # one chunk of hypotheses (two draws) explained every pair: the other 10^6 were not made
+    assert len(draws) == 2 and sum(draws) < 2 * 10 ** 5
+
+
+def test_inlier_threshold_is_a_distance():
+    rng = np.random.default_rng(4)
+    source = rng.uniform(-10, 10, (14, 2))
+    target = transform_points(source, 3.0, -1.0, -2.0)
+    offsets = {10: 0.06, 11: 0.2, 12: 0.25, 13: 0.3}  # residual length under the true transform
+    for index, length in offsets.items():
+        target[index] += length * np.array([0.6, -0.8])
+    estimate = ransac_rigid_transform(source, target, inlier_threshold=0.1)
+    np.testing.assert_array_equal(estimate.inliers, np.arange(14) <= 10)
 
 
 def test_ransac_skips_degenerate_samples():

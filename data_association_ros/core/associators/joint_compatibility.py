@@ -14,6 +14,7 @@ it cannot reach more pairs than the best so far (or as many with a smaller d2).
 from __future__ import annotations
 
 import math
+import sys
 import time
 from typing import Optional
 
@@ -148,6 +149,16 @@ class JointCompatibilitySearch:
         return self.truncated
 
     def run(self, position: int = 0, nis: float = 0.0) -> None:
+        """Search from `position` with the current pairs and joint NIS (recursion depth: one
+        frame per search position, so the recursion limit is raised to fit)."""
+        limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(limit, 2 * len(self.order) + 200))
+        try:
+            self._search(position, nis)
+        finally:
+            sys.setrecursionlimit(limit)
+
+    def _search(self, position: int, nis: float) -> None:
         """Explore from search position `position` with the current pairs and joint NIS."""
         if self.truncated:
             return
@@ -177,11 +188,11 @@ class JointCompatibilitySearch:
                 self.pairs.append((i, int(j)))
                 self.pair_locals[l] = a
                 self.used[a] = True
-                self.run(position + 1, new_nis)
+                self._search(position + 1, new_nis)
                 self.used[a] = False
                 self.pairs.pop()
             if self.truncated:
                 return
-        self.run(position + 1, nis)
+        self._search(position + 1, nis)
 
 
