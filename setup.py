@@ -26,7 +26,8 @@ setup(
     maintainer_email='dev@data-association-ros.invalid',
     description='Data association (NN, ML, GNN, JCBB, IoU) as a ROS 2 node and a numpy library.',
     license='Apache-2.0',
-    extras_require={'test': ['pytest', 'hypothesis']},
+    extras_require={'test': ['pytest', 'hypothesis'],
+                    'benchmarks': ['matplotlib', 'stonesoup']},
     entry_points={
         'console_scripts': [
             'association_node = data_association_ros.node:main',

@@ -4,8 +4,9 @@ Observations in index order, candidates in index order, and at every node the jo
 covariance C = H P H^T + blockdiag(R) of all pairs so far is built from full Jacobians and
 factorised from scratch.  Same definition of the answer as the fast one: the most pairs, then
 the smallest joint NIS, among one-to-one sets of individually compatible pairs passing the
-chi-square test of their own dimension.  Pruning: a branch whose NIS exceeds the threshold of
-the largest dimension it could still reach, or that cannot beat the best pair count.
+chi-square test of their own dimension.  Pruning (the textbook bound): a branch whose NIS
+exceeds the threshold of the largest dimension it could still reach, or that cannot beat the
+best, counting as reachable the later observations that still have a free compatible landmark.
 """
 from __future__ import annotations
 
@@ -33,29 +34,31 @@ def reference_jcbb(landmarks, observations, pose, state_covariance, gate_probabi
         w = np.linalg.solve(factor, nu)
         return float(w @ w)
 
+    threshold = [chi2.ppf(gate_probability, m * l) if l else 0.0 for l in range(k + 1)]
     compatible = np.zeros((k, n), dtype=bool)
     for i in range(k):
         for j in range(n):
-            compatible[i, j] = joint_nis([(i, j)]) <= chi2.ppf(gate_probability, m)
+            compatible[i, j] = joint_nis([(i, j)]) <= threshold[1]
     best = {'pairs': [], 'nis': 0.0, 'nodes': 0}
 
     def search(i, pairs, nis):
-        reachable = len(pairs) + (k - i)
+        used = {j for _, j in pairs}
+        free = [any(compatible[r, j] and j not in used for j in range(n)) for r in range(i, k)]
+        reachable = len(pairs) + sum(free)
         if reachable < len(best['pairs']) or (reachable == len(best['pairs'])
                                               and nis >= best['nis']):
             return
-        if pairs and nis > chi2.ppf(gate_probability, m * reachable):
+        if pairs and nis > threshold[reachable]:
             return
         if i == k:
             return
-        used = {j for _, j in pairs}
         for j in range(n):
             if not compatible[i, j] or j in used:
                 continue
             best['nodes'] += 1
             trial = pairs + [(i, j)]
             d2 = joint_nis(trial)
-            if d2 <= chi2.ppf(gate_probability, m * len(trial)) and (
+            if d2 <= threshold[len(trial)] and (
                     len(trial) > len(best['pairs'])
                     or (len(trial) == len(best['pairs']) and d2 < best['nis'])):
                 best['pairs'], best['nis'] = trial, d2

@@ -3,7 +3,9 @@
 A scan holds what the node gets (landmarks, robot pose, joint covariance, observations) and the
 ground truth of each observation: a landmark id, -1 for a landmark not yet in the map, -2 for
 clutter.  Estimates are the truth plus errors drawn from the covariances they are published
-with, so the covariances are honest.
+with, so the covariances are honest.  Correlated draws use the Cholesky factor (unique), not
+numpy's default SVD, whose basis of a repeated eigenvalue depends on the LAPACK build: the bags
+then regenerate to the same messages on any machine.
 """
 from __future__ import annotations
 
@@ -98,12 +100,13 @@ def clutter_range_bearing(seed: int = 2) -> list[Scan]:
         p[:3, :3] = pose_cov
         landmark_block = np.kron(np.full((n, n), drift), np.eye(2)) + np.eye(2 * n) * 0.04 ** 2
         p[3:, 3:] = landmark_block
-        error = rng.multivariate_normal(np.zeros(size), p)
+        error = rng.multivariate_normal(np.zeros(size), p, method='cholesky')
         pose_estimate = true_pose + error[:3]
         estimate = true + error[3:].reshape(n, 2)
         z = _range_bearing(true, true_pose)
         visible = np.flatnonzero(z[:, 0] < 18.0)
-        z = z[visible] + rng.multivariate_normal(np.zeros(2), noise, len(visible))
+        z = z[visible] + rng.multivariate_normal(np.zeros(2), noise, len(visible),
+                                                  method='cholesky')
         clutter = np.column_stack([rng.uniform(1, 18, 4), rng.uniform(-np.pi, np.pi, 4)])
         values = np.vstack([z, clutter])
         values[:, 1] = wrap_angle(values[:, 1])
@@ -135,7 +138,8 @@ def exploration(seed: int = 3) -> list[Scan]:
     for step in range(60):
         true_pose = np.array([step * 1.0, 0.2 * np.sin(step / 5), 0.05 * np.cos(step / 7)])
         pose_cov = np.diag([0.02 ** 2, 0.02 ** 2, 0.01 ** 2])
-        pose_estimate = true_pose + rng.multivariate_normal(np.zeros(3), pose_cov)
+        pose_estimate = true_pose + rng.multivariate_normal(np.zeros(3), pose_cov,
+                                                           method='cholesky')
         in_map = np.array(sorted(mapped), dtype=int)
         distance = np.hypot(*(true - true_pose[:2]).T)
         seen = np.flatnonzero(distance < 8.0)

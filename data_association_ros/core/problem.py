@@ -18,6 +18,28 @@ from .types import Landmarks, Observations, RobotPose
 from .validation import as_float_array, check_shape
 
 
+def symmetric_quadratic_form(vectors: np.ndarray, matrices: np.ndarray) -> np.ndarray:
+    """v^T A v for vectors (..., m) and symmetric A (..., m, m) broadcast against them, from the
+    upper triangle: sum_a A_aa v_a^2 + 2 sum_{a<b} A_ab v_a v_b (m^2 / 2 array operations)."""
+    m = vectors.shape[-1]
+    total = np.zeros(np.broadcast_shapes(vectors.shape[:-1], matrices.shape[:-2]))
+    for a in range(m):
+        total += matrices[..., a, a] * vectors[..., a] ** 2
+        for b in range(a + 1, m):
+            total += 2.0 * matrices[..., a, b] * vectors[..., a] * vectors[..., b]
+    return total
+
+
+def _positive_semi_definite(matrix: np.ndarray, tolerance: float) -> bool:
+    """Whether the symmetric matrix's eigenvalues are all >= -tolerance: Cholesky of
+    matrix + 2 tolerance I (several times cheaper than an eigendecomposition)."""
+    try:
+        np.linalg.cholesky(matrix + 2.0 * tolerance * np.eye(len(matrix)))
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
 class AssociationProblem:
     """Landmarks, observations, pose and joint covariance checked against each other."""
 
@@ -51,7 +73,7 @@ class AssociationProblem:
             scale = 1.0 + np.abs(matrix).max(initial=0.0)
             if np.abs(matrix - matrix.T).max(initial=0.0) > 1e-9 * scale:
                 raise InvalidInputError('state_covariance: not symmetric')
-            if size and np.linalg.eigvalsh(matrix)[0] < -1e-9 * scale:
+            if size and not _positive_semi_definite(matrix, 1e-9 * scale):
                 raise InvalidInputError('state_covariance: not positive semi-definite')
             self.state_covariance = matrix
 
@@ -138,26 +160,47 @@ class AssociationProblem:
                 + cross + np.swapaxes(cross, 1, 2) + h_m @ p_mm @ np.swapaxes(h_m, 1, 2))
 
     def joint_prediction_covariance(self, landmark_indices: np.ndarray) -> np.ndarray:
-        """Cov(h_a, h_b) for a, b in `landmark_indices` (L, L, m, m): H_a P H_b^T."""
+        """Cov(h_a, h_b) for a, b in `landmark_indices` (L, L, m, m): H_a P H_b^T, as one
+        product J P_sub J^T with J = [H_x stacked (L m, 3), blockdiag H_m (L m, L d)]."""
         _, h_m, h_x = self._prediction
         idx = np.asarray(landmark_indices, dtype=np.intp)
-        hx, hm = h_x[idx], h_m[idx]
-        p_mm = self._landmark_block(idx, idx)
-        p_xm = self._pose_landmark_block(idx)
-        pose_part = np.einsum('aik,kl,bjl->abij', hx, self._pose_covariance(), hx)
-        cross = np.einsum('aik,bkl,bjl->abij', hx, p_xm, hm)
-        landmark_part = np.einsum('aik,abkl,bjl->abij', hm, p_mm, hm)
-        return pose_part + cross + np.swapaxes(np.swapaxes(cross, 0, 1), 2, 3) + landmark_part
+        count, m, d = len(idx), self.observations.dim, self.landmarks.dim
+        jacobian = np.zeros((count, m, 3 + count * d))
+        jacobian[:, :, :3] = h_x[idx]
+        blocks = jacobian[:, :, 3:].reshape(count, m, count, d)
+        blocks[np.arange(count), :, np.arange(count), :] = h_m[idx]
+        covariance = np.empty((3 + count * d, 3 + count * d))
+        covariance[:3, :3] = self._pose_covariance()
+        p_xm = self._pose_landmark_block(idx).transpose(1, 0, 2).reshape(3, count * d)
+        covariance[:3, 3:] = p_xm
+        covariance[3:, :3] = p_xm.T
+        covariance[3:, 3:] = self._landmark_block(idx, idx).transpose(0, 2, 1, 3).reshape(
+            count * d, count * d)
+        flat = jacobian.reshape(count * m, 3 + count * d)
+        joint = flat @ covariance @ flat.T
+        return joint.reshape(count, m, count, m).transpose(0, 2, 1, 3)
 
-    @cached_property
-    def innovation_covariances(self) -> np.ndarray:
-        """S_ij = H_j P H_j^T + R_i (K, N, m, m), diagonal floored at min_innovation_variance."""
-        s = self.prediction_covariances[None, :, :, :] + \
-            self.observations.covariances[:, None, :, :]
+    def _floored(self, s: np.ndarray) -> np.ndarray:
+        """s with its diagonals raised to min_innovation_variance (in place)."""
         if self.min_innovation_variance > 0:
             diagonal = np.einsum('...ii->...i', s)
             diagonal[...] = np.maximum(diagonal, self.min_innovation_variance)
         return s
+
+    @cached_property
+    def innovation_covariances(self) -> np.ndarray:
+        """S_ij = H_j P H_j^T + R_i (K, N, m, m), diagonal floored at min_innovation_variance."""
+        return self._floored(self.prediction_covariances[None, :, :, :]
+                             + self.observations.covariances[:, None, :, :])
+
+    @cached_property
+    def _shared_innovation_covariances(self) -> Optional[np.ndarray]:
+        """S_j (N, m, m) when every observation has the same R (one sensor: S_ij = S_j), so N
+        factorisations replace K N; None otherwise."""
+        r = self.observations.covariances
+        if len(r) == 0 or not (r == r[0]).all():
+            return None
+        return self._floored(self.prediction_covariances + r[0])
 
     @cached_property
     def nis(self) -> np.ndarray:
@@ -166,6 +209,9 @@ class AssociationProblem:
         if k == 0 or n == 0:
             return np.zeros((k, n))
         nu = self.innovations
+        shared = self._shared_innovation_covariances
+        if shared is not None:
+            return symmetric_quadratic_form(nu, np.linalg.inv(shared))
         solved = np.linalg.solve(self.innovation_covariances, nu[..., None])[..., 0]
         return np.einsum('knm,knm->kn', nu, solved)
 
@@ -175,7 +221,9 @@ class AssociationProblem:
         k, n = self.sizes
         if k == 0 or n == 0:
             return np.zeros((k, n))
-        _, logdet = np.linalg.slogdet(2.0 * np.pi * self.innovation_covariances)
+        shared = self._shared_innovation_covariances
+        _, logdet = np.linalg.slogdet(2.0 * np.pi * (
+            self.innovation_covariances if shared is None else shared))
         return -0.5 * (self.nis + logdet)
 
     @cached_property

@@ -25,8 +25,8 @@ def individually_compatible(problem, gate_probability: float):
     observations with candidates, fewest candidates first)."""
     nis = problem.nis
     gated = nis <= chi2_threshold(gate_probability, problem.observations.dim)
-    candidates = [np.flatnonzero(row)[np.argsort(values[row], kind='stable')]
-                  for row, values in zip(gated, nis)]
+    by_nis = np.argsort(np.where(gated, nis, np.inf), axis=1, kind='stable')
+    candidates = [row[:count] for row, count in zip(by_nis, gated.sum(axis=1))]
     order = sorted((i for i in range(len(candidates)) if len(candidates[i])),
                    key=lambda i: (len(candidates[i]), i))
     return gated, candidates, order

@@ -87,9 +87,12 @@ class JointCompatibilitySearch:
         self.pair_locals = np.zeros(most, dtype=np.intp)
         self.pairs: list[tuple[int, int]] = []
         self.used = np.zeros(len(local), dtype=bool)
-        self.candidate_mask = np.zeros((k, len(local)), dtype=bool)
+        # searched_by[a, t]: landmark a is a candidate of search position t; free[t]: how many
+        # candidates of position t are not used by the current pairs
+        self.searched_by = np.zeros((len(local), k), dtype=np.intp)
         for t in range(k):
-            self.candidate_mask[t, self.locals[t]] = True
+            self.searched_by[self.locals[t], t] = 1
+        self.free = self.searched_by.sum(axis=0)
         self.best_pairs: list[tuple[int, int]] = []
         self.best_nis = 0.0
         self.nodes = 0
@@ -110,14 +113,22 @@ class JointCompatibilitySearch:
                 raise ValueError('joint covariance of the initial pairs is not positive definite')
             self.pair_locals[len(self.pairs)] = a
             self.pairs.append((i, j))
-            self.used[a] = True
+            self._use(a)
         if nis <= self.thresholds[len(self.pairs)]:
             self.best_pairs, self.best_nis = list(self.pairs), nis
         return nis
 
     def _reachable(self, position: int) -> int:
         """How many of the observations from `position` on still have a free candidate."""
-        return int((self.candidate_mask[position:] & ~self.used).any(axis=1).sum())
+        return int(np.count_nonzero(self.free[position:]))
+
+    def _use(self, a: int) -> None:
+        self.used[a] = True
+        self.free -= self.searched_by[a]
+
+    def _release(self, a: int) -> None:
+        self.used[a] = False
+        self.free += self.searched_by[a]
 
     def _extend(self, i: int, j: int, a: int, nis: float) -> Optional[float]:
         """d2 after adding pair (i, j) (local landmark a), writing the new rows of L^-1 and w;
@@ -187,9 +198,9 @@ class JointCompatibilitySearch:
             if passes or not self.classic:
                 self.pairs.append((i, int(j)))
                 self.pair_locals[l] = a
-                self.used[a] = True
+                self._use(a)
                 self._search(position + 1, new_nis)
-                self.used[a] = False
+                self._release(a)
                 self.pairs.pop()
             if self.truncated:
                 return

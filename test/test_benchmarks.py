@@ -1,0 +1,31 @@
+"""The benchmark script runs (quick mode) and its comparisons hold: fast jcbb gives the reference
+JCBB's answers, the time budget cuts a long search short.  Timings are not asserted."""
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / 'benchmarks'))
+
+import run_benchmarks  # noqa: E402
+
+
+def rows_of(text: str, title: str) -> list[list[str]]:
+    """The data rows of the markdown table under `title`."""
+    block = text[text.index(title):].split('\n\n')[1]
+    return [[c.strip() for c in line.strip('|').split('|')] for line in block.splitlines()[2:]]
+
+
+def test_quick_benchmarks_agree_with_the_reference(tmp_path):
+    assert run_benchmarks.main(['--quick', '--sections', 'jcbb,seed,budget',
+                                '--out', str(tmp_path)]) == 0
+    text = (tmp_path / 'benchmarks.md').read_text()
+    assert re.search(r'\d+ cores', text)
+    jcbb = rows_of(text, 'jcbb versus the reference JCBB')
+    assert [r[0] for r in jcbb] == ['clutter_range_bearing', 'dense random']
+    for row in jcbb:
+        same, total = row[3].split('/')
+        assert same == total == row[1]
+    for row in rows_of(text, 'jcbb time_budget_ms'):
+        cut, repeats = row[1].split('/')
+        assert cut == repeats
