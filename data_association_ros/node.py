@@ -24,7 +24,7 @@ from visualization_msgs.msg import MarkerArray
 from msg_adapters import diagnostics_message
 
 from .core import InvalidInputError
-from .node_parameters import BY_NAME, NODE_PARAMETERS, NodeParameter
+from .node_parameters import BY_NAME, NODE_PARAMETERS, NodeParameter, check_combination
 from .pipeline import AssociationPipeline
 
 
@@ -56,6 +56,11 @@ class AssociationNode(Node):
             except InvalidInputError as error:
                 self.get_logger().error(f'{error}; using the default {parameter.default!r}')
                 config[parameter.name] = parameter.default
+        try:
+            check_combination(config)
+        except InvalidInputError as error:
+            config['confirm_window'] = max(config['confirm_window'], config['confirm_hits'])
+            self.get_logger().error(f'{error}; using confirm_window {config["confirm_window"]}')
         self.pipeline = AssociationPipeline(config, warn=self.get_logger().warning)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -75,6 +80,7 @@ class AssociationNode(Node):
         self.create_subscription(PointCloud2, 'observations', self._on_observations, qos)
         self.correspondences_pub = self.create_publisher(PointCloud2, 'correspondences', 10)
         self.new_landmarks_pub = self.create_publisher(PointCloud2, 'new_landmarks', 10)
+        self.candidates_pub = self.create_publisher(PointCloud2, 'landmark_candidates', 10)
         self.markers_pub = self.create_publisher(MarkerArray, 'association_markers', 10)
         self.transform_pub = self.create_publisher(PoseWithCovarianceStamped,
                                                    'estimated_transform', 10)
@@ -95,14 +101,19 @@ class AssociationNode(Node):
 
     # validate in one callback, apply in another (a rejected set changes nothing)
     def _validate_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        trial = dict(self.config)
         for parameter in parameters:
             known = BY_NAME.get(parameter.name)
             if known is None:
                 continue
             try:
-                known.check(parameter.value)
+                trial[parameter.name] = known.check(parameter.value)
             except InvalidInputError as error:
                 return SetParametersResult(successful=False, reason=str(error))
+        try:
+            check_combination(trial)
+        except InvalidInputError as error:
+            return SetParametersResult(successful=False, reason=str(error))
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, parameters: list[Parameter]) -> None:
@@ -122,6 +133,8 @@ class AssociationNode(Node):
         self.correspondences_pub.publish(answer.correspondences)
         if answer.new_landmarks is not None:
             self.new_landmarks_pub.publish(answer.new_landmarks)
+        if answer.candidates is not None:
+            self.candidates_pub.publish(answer.candidates)
         if answer.markers is not None:
             self.markers_pub.publish(answer.markers)
         if answer.transform is not None:

@@ -11,6 +11,7 @@ from typing import Any, Optional
 
 from .core import InvalidInputError, available_algorithms
 from .core.associators import REGISTRY
+from .core.candidates import check_confirmation
 from .core.parameters import ParameterSpec
 
 MEASUREMENT_MODELS = ('auto', 'point_map', 'point_robot', 'range_bearing', 'box')
@@ -82,6 +83,15 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
     _from_spec(_CORE['max_nodes']),
     *(_from_spec(_CORE[name]) for name in ('minimal_iterations', 'transform_ransac',
                                             'ransac_inlier_threshold')),
+    NodeParameter('confirm_hits', 1,
+                  'a NEW observation becomes a landmark (new_landmarks) once its candidate was '
+                  'seen on this many of the last confirm_window scans; 1: at once (no candidates)',
+                  spec=ParameterSpec('confirm_hits', 1, '', kind=int, low=1, high=1000)),
+    NodeParameter('confirm_window', 3, 'scans over which confirm_hits are counted',
+                  spec=ParameterSpec('confirm_window', 3, '', kind=int, low=1, high=1000)),
+    NodeParameter('candidate_max_misses', 2,
+                  'a candidate not seen on this many scans in a row is dropped',
+                  spec=ParameterSpec('candidate_max_misses', 2, '', kind=int, low=1, high=1000)),
     NodeParameter('default_landmark_covariance', 0.01,
                   'variance [m^2] on each axis of landmarks that carry no covariance (PoseArray, '
                   'clouds without cov_* fields); applies from the next landmarks message',
@@ -114,6 +124,13 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
                   read_only=True),
 )
 BY_NAME = {parameter.name: parameter for parameter in NODE_PARAMETERS}
+
+
+def check_combination(config: dict[str, Any]) -> None:
+    """InvalidInputError when parameters valid one by one conflict (confirm_hits >
+    confirm_window)."""
+    check_confirmation(config['confirm_hits'], config['confirm_window'],
+                       config['candidate_max_misses'])
 
 
 def algorithm_arguments(config: dict[str, Any]) -> dict[str, Any]:

@@ -15,12 +15,13 @@ from typing import Any, Callable, Optional
 import numpy as np
 from std_msgs.msg import Header
 
-from msg_adapters import (PointCloudFormatError, association_markers, cloud_to_array,
-                          correspondences_cloud, detect_model, joint_covariance_from_array,
+from msg_adapters import (PointCloudFormatError, association_markers, candidates_cloud,
+                          cloud_to_array, correspondences_cloud, detect_model, joint_covariance_from_array,
                           landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
                           observations_from_points, pose_from_odometry, transform_message)
 
-from .core import Association, InvalidInputError, Landmarks, associate
+from .core import NEW, Association, InvalidInputError, Landmarks, associate
+from .core.candidates import CandidateManager, CandidateUpdate
 from .core.initialisation import observations_in_map
 from .core.models import MODELS
 from .node_parameters import algorithm_arguments
@@ -53,6 +54,7 @@ class Answer:
     markers: Optional[Any]
     association: Association
     transform: Optional[Any] = None
+    candidates: Optional[Any] = None
 
 
 class AssociationPipeline:
@@ -67,6 +69,7 @@ class AssociationPipeline:
         self.landmark_history: StampedBuffer[StampedLandmarks] = StampedBuffer(50)
         self.pose_history: StampedBuffer = StampedBuffer(200)
         self.state_covariance: Optional[np.ndarray] = None
+        self.candidates = CandidateManager()
 
     def _reject(self, counter, cause: str, text: str) -> None:
         counter[cause] += 1
@@ -158,9 +161,13 @@ class AssociationPipeline:
                            state_covariance=state_covariance, **algorithm_arguments(config))
         positions, covariances = observations_in_map(observations, pose)
         map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id)
+        update = self._confirm(config, result, positions, covariances, stamp, model)
         answer = Answer(
             correspondences=correspondences_cloud(msg.header, result, positions),
-            new_landmarks=new_landmarks_cloud(map_header, result, positions, covariances),
+            new_landmarks=new_landmarks_cloud(map_header, update.confirmed),
+            candidates=candidates_cloud(map_header, self.candidates.pending,
+                                        self.candidates.scan)
+            if config['confirm_hits'] > 1 else None,
             markers=association_markers(map_header, result, positions, landmarks.ids,
                                         landmarks.means) if config['publish_markers'] else None,
             association=result,
@@ -168,4 +175,18 @@ class AssociationPipeline:
             if 'transform' in result.extras else None)
         self.statistics.record_answer(result.assignment, (time.perf_counter() - started) * 1e3,
                                       result.truncated)
+        self.statistics.record_candidates(len(update.confirmed), len(update.expired),
+                                          len(self.candidates.pending))
         return answer
+
+    def _confirm(self, config: dict[str, Any], result: Association, positions: np.ndarray,
+                 covariances: Optional[np.ndarray], stamp: int, model: str) -> CandidateUpdate:
+        """Feed the NEW observations (map frame) to the candidate landmarks."""
+        self.candidates.configure(config['confirm_hits'], config['confirm_window'],
+                                  config['candidate_max_misses'], config['gate_probability'],
+                                  config['euclidean_gate'], config['iou_threshold'])
+        new = np.flatnonzero(result.assignment == NEW)
+        return self.candidates.update(
+            positions[new], None if covariances is None else covariances[new], stamp, new,
+            model='box' if model == 'box' else 'point_map',
+            euclidean=config['algorithm'] == 'euclidean_nn')

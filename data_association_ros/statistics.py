@@ -17,6 +17,9 @@ class AssociationStatistics:
         self.skipped: Counter = Counter()
         self.invalid: Counter = Counter()
         self.truncated = 0
+        self.candidates_confirmed = 0
+        self.candidates_expired = 0
+        self.candidates_pending = 0
         self.latency_last_ms = float('nan')
         self.latency_max_ms = 0.0
         self._latency_sum_ms = 0.0
@@ -33,6 +36,12 @@ class AssociationStatistics:
         self.latency_last_ms = latency_ms
         self.latency_max_ms = max(self.latency_max_ms, latency_ms)
         self._latency_sum_ms += latency_ms
+
+    def record_candidates(self, confirmed: int, expired: int, pending: int) -> None:
+        """Candidate landmarks after one answered message."""
+        self.candidates_confirmed += confirmed
+        self.candidates_expired += expired
+        self.candidates_pending = pending
 
     def should_warn(self, cause: str, now_s: float) -> bool:
         """True at most once per `warn_period_s` for each cause (throttled warnings)."""
@@ -54,6 +63,9 @@ class AssociationStatistics:
             'observations_new': self.outcomes['new'],
             'observations_unassociated': self.outcomes['unassociated'],
             'search_truncations': self.truncated,
+            'landmarks_confirmed': self.candidates_confirmed,
+            'candidates_expired': self.candidates_expired,
+            'candidates_pending': self.candidates_pending,
             'skipped_total': sum(self.skipped.values()),
             'invalid_total': sum(self.invalid.values()),
         }

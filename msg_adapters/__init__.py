@@ -2,12 +2,12 @@
 from .inputs import (detect_model, joint_covariance_from_array, landmarks_from_cloud,
                      landmarks_from_points, landmarks_from_pose_array, observations_from_cloud,
                      observations_from_points, pose_from_odometry)
-from .outputs import (association_markers, correspondences_cloud, diagnostics_message,
-                      new_landmarks_cloud, transform_message)
+from .outputs import (association_markers, candidates_cloud, correspondences_cloud,
+                      diagnostics_message, new_landmarks_cloud, transform_message)
 from .pointcloud import PointCloudFormatError, array_to_cloud, cloud_to_array
 
-__all__ = ['PointCloudFormatError', 'array_to_cloud', 'association_markers', 'cloud_to_array',
-           'correspondences_cloud', 'detect_model', 'diagnostics_message',
+__all__ = ['PointCloudFormatError', 'array_to_cloud', 'association_markers', 'candidates_cloud',
+           'cloud_to_array', 'correspondences_cloud', 'detect_model', 'diagnostics_message',
            'joint_covariance_from_array', 'landmarks_from_cloud', 'landmarks_from_points',
            'landmarks_from_pose_array', 'new_landmarks_cloud', 'observations_from_cloud',
            'observations_from_points', 'pose_from_odometry', 'transform_message']

@@ -1,7 +1,7 @@
 """Core results -> output messages: correspondences, new_landmarks, markers, diagnostics."""
 from __future__ import annotations
 
-from typing import Mapping, Optional
+from typing import Mapping, Optional, Sequence
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -10,6 +10,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from data_association_ros.core import NEW, UNASSOCIATED, Association
+from data_association_ros.core.candidates import Candidate, ConfirmedLandmark
 
 from .pointcloud import array_to_cloud
 
@@ -17,8 +18,15 @@ CORRESPONDENCE_DTYPE = np.dtype([('observation', '<i4'), ('landmark', '<i4'), ('
                                  ('probability', '<f4'), ('x', '<f4'), ('y', '<f4')])
 """Fields of `correspondences` (DESIGN.md 4)."""
 NEW_LANDMARK_DTYPE = np.dtype([('observation', '<i4'), ('x', '<f4'), ('y', '<f4'),
-                               ('cov_xx', '<f4'), ('cov_xy', '<f4'), ('cov_yy', '<f4')])
-"""Fields of `new_landmarks` (DESIGN.md 4)."""
+                               ('cov_xx', '<f4'), ('cov_xy', '<f4'), ('cov_yy', '<f4'),
+                               ('candidate', '<i4'), ('stamp_sec', '<i4'),
+                               ('stamp_nanosec', '<u4')])
+"""Fields of `new_landmarks` (DESIGN.md 4, plus the candidate id and the stamp of each
+confirming observation)."""
+CANDIDATE_DTYPE = np.dtype([('candidate', '<i4'), ('x', '<f4'), ('y', '<f4'), ('cov_xx', '<f4'),
+                            ('cov_xy', '<f4'), ('cov_yy', '<f4'), ('hits', '<i4'),
+                            ('misses', '<i4')])
+"""Fields of `landmark_candidates` (DESIGN.md 4)."""
 
 
 def correspondences_cloud(header, association: Association, map_positions: np.ndarray,
@@ -37,20 +45,43 @@ def correspondences_cloud(header, association: Association, map_positions: np.nd
     return array_to_cloud(points, header)
 
 
-def new_landmarks_cloud(header, association: Association, map_positions: np.ndarray,
-                        map_covariances: np.ndarray):
-    """PointCloud2 of the NEW observations (map frame): index, x, y and 2x2 covariance from the
-    inverse measurement model; None when there is none."""
-    new = np.flatnonzero(association.assignment == NEW)
-    if new.size == 0:
+def _covariance_fields(points: np.ndarray, covariance: Optional[np.ndarray]) -> None:
+    """cov_xx, cov_xy, cov_yy of a 2x2 (or the x, y block of a larger) covariance; NaN when
+    None."""
+    if covariance is None:
+        points['cov_xx'] = points['cov_xy'] = points['cov_yy'] = np.nan
+    else:
+        points['cov_xx'], points['cov_xy'], points['cov_yy'] = \
+            covariance[0, 0], covariance[0, 1], covariance[1, 1]
+
+
+def new_landmarks_cloud(header, confirmed: Sequence[ConfirmedLandmark]):
+    """PointCloud2 of the landmarks confirmed at this scan (map frame), one point per
+    confirming observation: its index and stamp, the candidate id (one landmark per distinct
+    candidate) and the landmark's fused x, y and covariance; None when none was confirmed.
+    With confirm_hits 1 that is one point per NEW observation of this message."""
+    rows = [(landmark, stamp, index) for landmark in confirmed
+            for stamp, index in landmark.observations]
+    if not rows:
         return None
-    points = np.zeros(new.size, dtype=NEW_LANDMARK_DTYPE)
-    points['observation'] = new
-    points['x'] = map_positions[new, 0]
-    points['y'] = map_positions[new, 1]
-    points['cov_xx'] = map_covariances[new, 0, 0]
-    points['cov_xy'] = map_covariances[new, 0, 1]
-    points['cov_yy'] = map_covariances[new, 1, 1]
+    points = np.zeros(len(rows), dtype=NEW_LANDMARK_DTYPE)
+    for point, (landmark, stamp, index) in zip(points, rows):
+        point['observation'], point['candidate'] = index, landmark.candidate
+        point['stamp_sec'], point['stamp_nanosec'] = divmod(stamp, 1_000_000_000)
+        point['x'], point['y'] = landmark.mean[0], landmark.mean[1]
+        _covariance_fields(point, landmark.covariance)
+    return array_to_cloud(points, header)
+
+
+def candidates_cloud(header, candidates: Sequence[Candidate], scan: int):
+    """PointCloud2 of the pending candidate landmarks (map frame): id, x, y, covariance, hits
+    so far, scans in a row without a hit (possibly empty, so that viewers clear)."""
+    points = np.zeros(len(candidates), dtype=CANDIDATE_DTYPE)
+    for point, candidate in zip(points, candidates):
+        point['candidate'] = candidate.id
+        point['x'], point['y'] = candidate.mean[0], candidate.mean[1]
+        _covariance_fields(point, candidate.covariance)
+        point['hits'], point['misses'] = len(candidate.hit_scans), candidate.misses(scan)
     return array_to_cloud(points, header)
 
 

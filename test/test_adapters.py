@@ -6,7 +6,8 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from data_association_ros import NEW, UNASSOCIATED, Association, InvalidInputError, RobotPose
 from data_association_ros.core.initialisation import observations_in_map
-from msg_adapters import (cloud_to_array, correspondences_cloud, detect_model,
+from data_association_ros.core.candidates import CandidateManager
+from msg_adapters import (candidates_cloud, cloud_to_array, correspondences_cloud, detect_model,
                           joint_covariance_from_array, landmarks_from_cloud,
                           landmarks_from_pose_array, new_landmarks_cloud, observations_from_cloud,
                           pose_from_odometry)
@@ -96,8 +97,29 @@ def test_output_clouds_carry_assignment_nis_and_inverse_model_covariance():
     result = Association(np.array([NEW, UNASSOCIATED]), np.array([np.nan, np.nan]))
     points = cloud_to_array(correspondences_cloud(None, result, positions))
     np.testing.assert_array_equal(points['landmark'], [NEW, UNASSOCIATED])
-    new = cloud_to_array(new_landmarks_cloud(None, result, positions, covariances))
+    manager = CandidateManager(confirm_hits=1)
+    update = manager.update(positions[:1], covariances[:1], 1_500_000_007, np.array([0]))
+    new = cloud_to_array(new_landmarks_cloud(None, update.confirmed))
     np.testing.assert_array_equal(new['observation'], [0])
+    np.testing.assert_array_equal([new['stamp_sec'][0], new['stamp_nanosec'][0]], [1, 500000007])
+    np.testing.assert_allclose([new['x'][0], new['y'][0]], [3.0, 1.0], rtol=1e-6)
     np.testing.assert_allclose([new['cov_xx'][0], new['cov_yy'][0]], [0.01, 0.0416], rtol=1e-6)
-    assert new_landmarks_cloud(None, Association(np.array([3]), np.array([1.0])), positions[:1],
-                               covariances[:1]) is None
+    assert new_landmarks_cloud(None, ()) is None
+
+
+def test_confirmed_landmark_has_one_point_per_confirming_observation_and_candidates_clear():
+    manager = CandidateManager(confirm_hits=2, confirm_window=2, max_misses=1)
+    r = np.eye(2) * 0.01
+    manager.update(np.array([[1.0, 2.0], [9.0, 9.0]]), np.array([r, r]), 10, np.array([4, 5]))
+    pending = cloud_to_array(candidates_cloud(None, manager.pending, manager.scan))
+    np.testing.assert_array_equal(pending['candidate'], [0, 1])
+    np.testing.assert_array_equal(pending['hits'], [1, 1])
+    np.testing.assert_allclose(pending['cov_xx'], [0.01, 0.01], rtol=1e-6)
+    update = manager.update(np.array([[1.02, 2.0]]), np.array([r]), 20, np.array([0]))
+    new = cloud_to_array(new_landmarks_cloud(None, update.confirmed))
+    np.testing.assert_array_equal(new['candidate'], [0, 0])
+    np.testing.assert_array_equal(new['observation'], [4, 0])
+    np.testing.assert_array_equal(new['stamp_nanosec'], [10, 20])
+    np.testing.assert_allclose(new['x'], [1.01, 1.01], rtol=1e-6)  # fused, on every point
+    np.testing.assert_allclose(new['cov_xx'], [0.005, 0.005], rtol=1e-6)
+    assert len(cloud_to_array(candidates_cloud(None, manager.pending, manager.scan))) == 0

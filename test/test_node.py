@@ -324,3 +324,31 @@ def test_jcbb_points_publishes_the_estimated_transform(graph):
     # scan -> boundary is the inverse motion
     assert 2 * np.arctan2(pose.orientation.z, pose.orientation.w) == pytest.approx(-yaw, abs=1e-3)
     assert transforms[0].header.stamp == graph.received['correspondences'][-1].header.stamp
+
+
+def test_new_landmark_announced_only_after_confirmation_with_candidates_shown(graph):
+    refused = set_parameters(graph, confirm_hits=4)  # more than confirm_window (3)
+    assert not refused[0].successful and 'confirm_window' in refused[0].reason
+    assert graph.node.config['confirm_hits'] == 1
+    assert all(r.successful for r in set_parameters(graph, confirm_hits=2, confirm_window=3))
+    graph.collect(PointCloud2, 'landmark_candidates')
+    publish_map(graph)
+    settle(graph)
+    stray_then_landmark = [[[30.0, -30.0]], [[50.0, 50.0], [30.02, -30.0]]]
+    for k, points in enumerate(stray_then_landmark):
+        points = np.array(points)
+        reply = correspondences(exchange(graph, cloud({'x': points[:, 0], 'y': points[:, 1]},
+                                                      1.5 + 0.5 * k, 'map')))
+        np.testing.assert_array_equal(reply['landmark'], NEW)  # NEW in correspondences
+        candidates = correspondences(wait_reply(graph, 'landmark_candidates', k + 1)[-1])
+        if k == 0:
+            assert len(graph.received['new_landmarks']) == 0  # one sighting is not enough
+            np.testing.assert_array_equal(candidates['hits'], [1])
+    new = correspondences(wait_reply(graph, 'new_landmarks', 1)[-1])
+    np.testing.assert_array_equal(new['observation'], [0, 1])  # scan 1 index 0, scan 2 index 1
+    np.testing.assert_array_equal(new['stamp_sec'], [1, 2])
+    np.testing.assert_array_equal(new['stamp_nanosec'], [500_000_000, 0])
+    np.testing.assert_array_equal(new['candidate'], [0, 0])
+    np.testing.assert_allclose(new['x'], [30.01, 30.01], atol=1e-4)
+    np.testing.assert_array_equal(candidates['hits'], [1])  # the (50, 50) stray is pending
+    assert graph.node.statistics.candidates_confirmed == 1

@@ -4,8 +4,10 @@
     da_bag_eval BAG --offline       the same pipeline on the bag without DDS (fast, for sweeps)
     da_bag_eval BAG OUT             score a recording made by da_bag_replay
 
-Scores: pairing precision and recall, correct and false new-landmark events, clutter accepted
-as a pair, answered messages, latency (median/p99, live only) and, offline, scans per second.
+Scores: pairing precision and recall, correct and false NEW answers, clutter accepted as a pair,
+answered messages, the landmarks announced on new_landmarks (right, false, of which duplicates,
+true new landmarks missed, median delay in scans from first sighting; see NewLandmarkScore),
+latency (median/p99, live only) and, offline, scans per second.
 """
 from __future__ import annotations
 
@@ -24,10 +26,10 @@ from msg_adapters import cloud_to_array
 
 from ..pipeline import stamp_ns
 from . import topics
-from .offline import node_config, run_offline, truth_by_stamp
+from .offline import node_config, offline_answers, truth_by_stamp, truth_positions_by_stamp
 from .parameter_arguments import parse_assignments
 from .reader import BagError, BagReader
-from .scoring import Score
+from .scoring import NewLandmarkScore, Score
 
 DEFAULT_ALGORITHMS = ('euclidean_nn', 'mahalanobis_nn', 'maximum_likelihood', 'gnn', 'jcbb')
 
@@ -51,19 +53,34 @@ def read_truth(bag: Path) -> tuple[BagReader, dict[int, np.ndarray]]:
     return reader, truth
 
 
-def score_recording(truth: dict[int, np.ndarray], recording: BagReader) -> Score:
-    """Score /correspondences of a recording; latency = answer log time - observation log
-    time (both wall clock in a da_bag_replay recording)."""
+def read_truth_xy(bag: Path) -> dict[int, np.ndarray]:
+    """{stamp ns: true x, y (K, 2)} of the bag's ground truth."""
+    reader = BagReader(bag)
+    return truth_positions_by_stamp((m.topic, m.msg) for m in reader.messages(
+        [topics.GROUND_TRUTH]))
+
+
+def score_recording(truth: dict[int, np.ndarray], recording: BagReader,
+                    truth_xy: Optional[dict[int, np.ndarray]] = None) -> Score:
+    """Score /correspondences of a recording (and its /new_landmarks when `truth_xy` is
+    given); latency = answer log time - observation log time (both wall clock in a
+    da_bag_replay recording)."""
     sent: dict[int, int] = {}
     answers: dict[int, tuple[np.ndarray, int]] = {}
-    for message in recording.messages([topics.OBSERVATIONS, topics.CORRESPONDENCES]):
+    announced = []
+    wanted = [topics.OBSERVATIONS, topics.CORRESPONDENCES] + (
+        [topics.NEW_LANDMARKS] if topics.NEW_LANDMARKS in recording.topics else [])
+    for message in recording.messages(wanted):
         stamp = stamp_ns(message.msg.header)
         if message.topic == topics.OBSERVATIONS:
             sent[stamp] = message.log_time_ns
+        elif message.topic == topics.NEW_LANDMARKS:
+            announced.append((stamp, cloud_to_array(message.msg)))
         else:
             answers[stamp] = (cloud_to_array(message.msg)['landmark'].astype(np.int64),
                               message.log_time_ns)
-    score = Score()
+    score = Score(landmarks=score_new_landmarks(truth, truth_xy, announced)
+                  if truth_xy is not None else None)
     for stamp, true in sorted(truth.items()):
         answer, received = answers.get(stamp, (None, None))
         latency = (received - sent[stamp]) / 1e6 if answer is not None and stamp in sent \
@@ -78,12 +95,25 @@ def evaluate_offline(bag: Path, algorithm: str, overrides: dict[str, Any]) -> di
     present = [t for t in topics.INPUT_TOPICS if t in reader.topics]
     messages = [(m.topic, m.msg) for m in reader.messages(present)]
     started = time.perf_counter()
-    answers = run_offline(messages, node_config(algorithm, overrides))
+    answers = offline_answers(messages, node_config(algorithm, overrides))
     elapsed = time.perf_counter() - started
-    score = Score()
+    announced = [(stamp, cloud_to_array(answer.new_landmarks))
+                 for stamp, answer in sorted(answers.items()) if answer.new_landmarks is not None]
+    score = Score(landmarks=score_new_landmarks(truth, read_truth_xy(bag), announced))
     for stamp, true in sorted(truth.items()):
-        score.add(true, answers.get(stamp))
+        answer = answers.get(stamp)
+        score.add(true, None if answer is None else answer.association.assignment)
     return {**score.summary(), 'scans_per_s': len(truth) / elapsed if elapsed else math.inf}
+
+
+def score_new_landmarks(truth: dict[int, np.ndarray], truth_xy: dict[int, np.ndarray],
+                        announced: list[tuple[int, np.ndarray]]) -> NewLandmarkScore:
+    """NewLandmarkScore of the decoded new_landmarks messages [(stamp, points)] in time order."""
+    score = NewLandmarkScore(truth, truth_xy)
+    for stamp, points in sorted(announced, key=lambda item: item[0]):
+        if stamp in score.scan_of:
+            score.add(stamp, points)
+    return score
 
 
 def evaluate_live(bag: Path, algorithm: str, overrides: dict[str, Any], rate: float,
@@ -96,7 +126,7 @@ def evaluate_live(bag: Path, algorithm: str, overrides: dict[str, Any], rate: fl
     with tempfile.TemporaryDirectory() as scratch:
         target = out or Path(scratch) / 'recording'
         write_recording(target, result)
-        summary = score_recording(truth, BagReader(target)).summary()
+        summary = score_recording(truth, BagReader(target), read_truth_xy(bag)).summary()
     summary['node_alive'] = result.node_alive
     return summary
 
@@ -104,7 +134,10 @@ def evaluate_live(bag: Path, algorithm: str, overrides: dict[str, Any], rate: fl
 COLUMNS = (('algorithm', 'algorithm', 20, '{}'), ('pair_precision', 'precision', 10, '{:.3f}'),
            ('pair_recall', 'recall', 8, '{:.3f}'), ('new_correct', 'new ok', 8, '{}'),
            ('new_false', 'new false', 10, '{}'), ('clutter_paired', 'clutter paired', 15, '{}'),
-           ('answered', 'answered', 10, '{}'))
+           ('answered', 'answered', 10, '{}'), ('landmarks_right', 'lm ok', 7, '{}'),
+           ('landmarks_false', 'lm false', 9, '{}'), ('landmarks_duplicate', '(dup)', 6, '{}'),
+           ('landmarks_missed', 'lm missed', 10, '{}'),
+           ('confirm_delay_scans', 'delay', 7, '{:.1f}'))
 LIVE_COLUMNS = (('latency_median_ms', 'latency p50 ms', 15, '{:.2f}'),
                 ('latency_p99_ms', 'p99 ms', 8, '{:.2f}'))
 OFFLINE_COLUMNS = (('scans_per_s', 'scans/s', 9, '{:.0f}'),)
@@ -144,7 +177,7 @@ def main(argv: Optional[list[str]] = None) -> int:
         if args.out is not None:
             _, truth = read_truth(args.bag)
             rows = [{'algorithm': str(args.out), **score_recording(
-                truth, BagReader(args.out)).summary()}]
+                truth, BagReader(args.out), read_truth_xy(args.bag)).summary()}]
         else:
             algorithms = args.algorithms.split(',') if args.algorithms else \
                 list(bag_algorithms(args.bag))

@@ -8,7 +8,7 @@ import numpy as np
 from msg_adapters import cloud_to_array
 
 from ..core import InvalidInputError
-from ..node_parameters import BY_NAME, NODE_PARAMETERS
+from ..node_parameters import BY_NAME, NODE_PARAMETERS, check_combination
 from ..pipeline import AssociationPipeline, stamp_ns
 from . import topics
 
@@ -20,11 +20,19 @@ def node_config(algorithm: str, overrides: Mapping[str, Any] = ()) -> dict[str, 
         if name not in BY_NAME:
             raise InvalidInputError(f'{name}: not a parameter of association_node')
         config[name] = BY_NAME[name].check(value)
+    check_combination(config)
     return config
 
 
 def run_offline(messages: Iterable[tuple[str, Any]], config: dict[str, Any]) -> dict[int, Any]:
     """Feed (topic, message) pairs in order to a pipeline; {observation stamp ns: assignment}."""
+    return {stamp: answer.association.assignment
+            for stamp, answer in offline_answers(messages, config).items()}
+
+
+def offline_answers(messages: Iterable[tuple[str, Any]],
+                    config: dict[str, Any]) -> dict[int, Any]:
+    """Feed (topic, message) pairs in order to a pipeline; {observation stamp ns: Answer}."""
     pipeline = AssociationPipeline(config)
     handlers = {topics.LANDMARKS: pipeline.on_landmarks, topics.ROBOT_POSE: pipeline.on_robot_pose,
                 topics.STATE_COVARIANCE: pipeline.on_state_covariance}
@@ -33,7 +41,7 @@ def run_offline(messages: Iterable[tuple[str, Any]], config: dict[str, Any]) -> 
         if topic == topics.OBSERVATIONS:
             answer = pipeline.answer(msg)
             if answer is not None:
-                answers[stamp_ns(msg.header)] = answer.association.assignment
+                answers[stamp_ns(msg.header)] = answer
         elif topic in handlers:
             handlers[topic](msg)
     return answers
@@ -43,3 +51,13 @@ def truth_by_stamp(messages: Iterable[tuple[str, Any]]) -> dict[int, np.ndarray]
     """{observation stamp ns: true assignment} from /ground_truth/correspondences messages."""
     return {stamp_ns(msg.header): cloud_to_array(msg)['landmark'].astype(np.int64)
             for topic, msg in messages if topic == topics.GROUND_TRUTH}
+
+
+def truth_positions_by_stamp(messages: Iterable[tuple[str, Any]]) -> dict[int, np.ndarray]:
+    """{observation stamp ns: true x, y (K, 2) of what each observation saw}."""
+    out = {}
+    for topic, msg in messages:
+        if topic == topics.GROUND_TRUTH:
+            points = cloud_to_array(msg)
+            out[stamp_ns(msg.header)] = np.column_stack([points['x'], points['y']])
+    return out

@@ -27,6 +27,8 @@ from . import topics
 WAIT_FOR_NODE_S = 30.0
 WAIT_FOR_ANSWERS_S = 10.0
 SETTLE_S = 1.0
+DRAIN_S = 0.3
+"""Spinning after the last answer, for the outputs published after it."""
 
 
 @dataclass
@@ -91,7 +93,7 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
     try:
         deadline = time.monotonic() + WAIT_FOR_NODE_S
         while not (all(p.get_subscription_count() > 0 for p in publishers.values())
-                   and node.count_publishers(topics.CORRESPONDENCES) > 0):
+                   and all(node.count_publishers(t) > 0 for t in topics.OUTPUT_TOPICS)):
             if process.poll() is not None or time.monotonic() > deadline:
                 raise BagError('association_node did not come up')
             executor.spin_once(timeout_sec=0.05)
@@ -122,6 +124,11 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
                                   if t == topics.CORRESPONDENCES)
             if result.answered >= result.sent:
                 break
+            executor.spin_once(timeout_sec=0.05)
+        # the outputs published after the last correspondences (new_landmarks) are still on
+        # their way
+        drain = time.monotonic() + DRAIN_S
+        while time.monotonic() < drain and process.poll() is None:
             executor.spin_once(timeout_sec=0.05)
         result.answered = sum(1 for t, _, _ in result.recorded if t == topics.CORRESPONDENCES)
     finally:

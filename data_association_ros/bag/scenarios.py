@@ -125,7 +125,7 @@ def clutter_range_bearing(seed: int = 2) -> list[Scan]:
     return scans
 
 
-def exploration(seed: int = 3) -> list[Scan]:
+def exploration(seed: int = 3, clutter: int = 0, sightings_to_map: int = 1) -> list[Scan]:
     """A robot drives 60 m along a corridor of 40 landmarks, sensing positions in its own frame
     within 8 m (sigma 5 cm); a landmark enters the map the scan after it is first seen, so its
     first observation is NEW (-1)."""
@@ -134,6 +134,7 @@ def exploration(seed: int = 3) -> list[Scan]:
     true = np.column_stack([xs, rng.choice([-1, 1], 40) * rng.uniform(1.5, 4, 40)])
     ids = np.arange(40) + 500
     mapped: dict[int, np.ndarray] = {}
+    sightings = np.zeros(40, dtype=int)
     scans = []
     for step in range(60):
         true_pose = np.array([step * 1.0, 0.2 * np.sin(step / 5), 0.05 * np.cos(step / 7)])
@@ -146,17 +147,31 @@ def exploration(seed: int = 3) -> list[Scan]:
         z = MODELS['point_robot'].predict(true[seen], true_pose)[0] + \
             rng.normal(0, 0.05, (len(seen), 2))
         truth = np.where(np.isin(seen, in_map), ids[seen], NEW)
+        truth_xy = true[seen]
+        if clutter:
+            false = np.column_stack([rng.uniform(-6, 6, clutter), rng.uniform(-6, 6, clutter)])
+            z = np.vstack([z, false])
+            truth = np.concatenate([truth, np.full(clutter, CLUTTER)])
+            truth_xy = np.vstack([truth_xy, MODELS['point_robot'].inverse(false, true_pose)[0]])
         means = np.array([mapped[j] for j in in_map]).reshape(-1, 2)
         scans.append(Scan(
             time_ns=int(1e9) + step * 100_000_000, landmark_ids=ids[in_map], landmark_means=means,
             landmark_covariances=np.tile(np.eye(2) * 0.05 ** 2, (len(in_map), 1, 1)),
             observations={'x': z[:, 0], 'y': z[:, 1], 'cov_xx': np.full(len(z), 0.0025),
                           'cov_xy': np.zeros(len(z)), 'cov_yy': np.full(len(z), 0.0025)},
-            observation_frame='base_link', truth=truth, truth_xy=true[seen],
+            observation_frame='base_link', truth=truth, truth_xy=truth_xy,
             pose=(pose_estimate, pose_cov)))
-        for j in seen:
+        sightings[seen] += 1
+        for j in seen[sightings[seen] >= sightings_to_map]:
             mapped.setdefault(int(j), true[j] + rng.normal(0, 0.05, 2))
     return scans
+
+
+def exploration_clutter(seed: int = 6) -> list[Scan]:
+    """exploration with 2 clutter returns per scan (uniform within 6 m of the robot) and a map
+    owner that adds a landmark only after its third sighting, so each landmark is NEW (-1) on
+    its first three observations: the bag for confirming new landmarks (confirm_hits)."""
+    return exploration(seed, clutter=2, sightings_to_map=3)
 
 
 def boxes(seed: int = 4) -> list[Scan]:
@@ -210,6 +225,7 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
              # no time budget: JCBB's answer must not depend on the machine's speed
              parameters={'time_budget_ms': 0.0}),
     Scenario('exploration', exploration.__doc__, exploration),
+    Scenario('exploration_clutter', exploration_clutter.__doc__, exploration_clutter),
     Scenario('boxes', boxes.__doc__, boxes,
              algorithms=('iou', 'euclidean_nn', 'mahalanobis_nn', 'gnn', 'jcbb'),
              parameters={'default_landmark_covariance': 16.0, 'observation_noise': [16.0],
