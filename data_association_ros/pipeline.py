@@ -186,7 +186,11 @@ class AssociationPipeline:
                                   config['candidate_max_misses'], config['gate_probability'],
                                   config['euclidean_gate'], config['iou_threshold'])
         new = np.flatnonzero(result.assignment == NEW)
-        return self.candidates.update(
-            positions[new], None if covariances is None else covariances[new], stamp, new,
-            model='box' if model == 'box' else 'point_map',
-            euclidean=config['algorithm'] == 'euclidean_nn')
+        try:
+            return self.candidates.update(
+                positions[new], None if covariances is None else covariances[new], stamp, new,
+                model='box' if model == 'box' else 'point_map',
+                euclidean=config['algorithm'] == 'euclidean_nn')
+        except InvalidInputError as error:  # e.g. a degenerate map-frame covariance
+            self._invalid('candidates', error)
+            return CandidateUpdate((), ())
