@@ -92,6 +92,10 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
     NodeParameter('candidate_max_misses', 2,
                   'a candidate not seen on this many scans in a row is dropped',
                   spec=ParameterSpec('candidate_max_misses', 2, '', kind=int, low=1, high=1000)),
+    NodeParameter('max_pairs', 5_000_000,
+                  'an observation message with more observations x landmarks than this is '
+                  'skipped (counted as too_large): bounds memory and time per message',
+                  spec=ParameterSpec('max_pairs', 5_000_000, '', kind=int, low=1)),
     NodeParameter('default_landmark_covariance', 0.01,
                   'variance [m^2] on each axis of landmarks that carry no covariance (PoseArray, '
                   'clouds without cov_* fields); applies from the next landmarks message',

@@ -122,7 +122,8 @@ class AssociationPipeline:
         """The outputs for an observation PointCloud2, or None when it is skipped or invalid."""
         started = time.perf_counter()
         try:
-            return self._answer(msg, started)
+            with np.errstate(all='ignore'):  # absurd magnitudes give inf/NaN, reported as such
+                return self._answer(msg, started)
         except INPUT_ERRORS as error:
             self._invalid('observations', error)
         except Exception as error:  # never let one message take the node down
@@ -153,6 +154,11 @@ class AssociationPipeline:
                 return None
         observations = observations_from_points(points, model, config['observation_noise'])
         landmarks = item.landmarks
+        if len(observations) * len(landmarks) > config['max_pairs']:
+            self._reject(self.statistics.skipped, 'too_large',
+                         f'observation message skipped: {len(observations)} observations x '
+                         f'{len(landmarks)} landmarks exceeds max_pairs {config["max_pairs"]}')
+            return None
         state_covariance = self.state_covariance
         if state_covariance is not None and \
                 state_covariance.shape[0] != 3 + len(landmarks) * landmarks.dim:

@@ -10,6 +10,7 @@ from typing import Sequence
 import numpy as np
 
 from data_association_ros.core import InvalidInputError, Landmarks, Observations, RobotPose
+from data_association_ros.core.validation import check_covariance_matrix
 
 from .pointcloud import cloud_to_array
 
@@ -143,7 +144,9 @@ def pose_from_odometry(msg) -> RobotPose:
 
 
 def joint_covariance_from_array(msg) -> np.ndarray:
-    """Square matrix from a std_msgs/Float64MultiArray (layout dims, or n*n values)."""
+    """Square matrix from a std_msgs/Float64MultiArray (layout dims, or n*n values), checked
+    finite, symmetric and positive semi-definite on arrival (a bad one never replaces a good
+    one)."""
     data = np.asarray(msg.data, dtype=np.float64)
     dims = [d.size for d in msg.layout.dim]
     if len(dims) == 2 and dims[0] == dims[1] and dims[0] * dims[1] == data.size:
@@ -156,5 +159,5 @@ def joint_covariance_from_array(msg) -> np.ndarray:
     offset = msg.layout.data_offset
     if offset:
         raise InvalidInputError('state_covariance.layout.data_offset: must be 0')
-    return data.reshape(size, size)
+    return check_covariance_matrix(data.reshape(size, size), 'state_covariance')
 

@@ -76,13 +76,18 @@ def test_detect_model_without_usable_fields():
 
 
 def test_joint_covariance_from_layout_and_from_square_length():
-    matrix = np.arange(9.0).reshape(3, 3)
+    matrix = np.array([[2.0, 0.5, 0.1], [0.5, 1.0, 0.2], [0.1, 0.2, 3.0]])
     msg = Float64MultiArray(data=matrix.ravel().tolist())
     np.testing.assert_array_equal(joint_covariance_from_array(msg), matrix)
     msg.layout.dim = [MultiArrayDimension(size=3, stride=9), MultiArrayDimension(size=3, stride=3)]
     np.testing.assert_array_equal(joint_covariance_from_array(msg), matrix)
     with pytest.raises(InvalidInputError, match='not a square'):
         joint_covariance_from_array(Float64MultiArray(data=[1.0, 2.0]))
+    for bad, reason in ((np.arange(9.0).reshape(3, 3), 'not symmetric'),
+                        (-np.eye(3), 'not positive semi-definite'),
+                        (np.diag([1.0, np.inf, 1.0]), 'not finite')):
+        with pytest.raises(InvalidInputError, match=reason):
+            joint_covariance_from_array(Float64MultiArray(data=bad.ravel().tolist()))
 
 
 def test_output_clouds_carry_assignment_nis_and_inverse_model_covariance():

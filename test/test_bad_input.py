@@ -110,3 +110,37 @@ def test_importing_the_package_imports_no_ros():
             '("rclpy", "sensor_msgs", "std_msgs", "msg_adapters")]; '
             'assert not bad, bad')
     subprocess.run([sys.executable, '-c', code], check=True)
+
+
+GARBAGE = st.one_of(st.none(), st.text(max_size=3), st.integers(-5, 5), st.floats(),
+                    st.booleans(), st.lists(st.floats(), max_size=4),
+                    st.lists(st.lists(st.floats(), max_size=3), max_size=3),
+                    hnp.arrays(np.float64, hnp.array_shapes(min_dims=0, max_dims=4, max_side=3)),
+                    hnp.arrays(np.int64, hnp.array_shapes(max_dims=2, max_side=3)),
+                    st.just(np.zeros((0, 2))), st.just({'x': 1}))
+
+
+@settings(max_examples=1500, deadline=None)
+@given(ids=st.one_of(GARBAGE, st.just([1, 2]), st.just([1, 1])),
+       means=st.one_of(GARBAGE, st.just(np.zeros((2, 2))), st.just(np.ones((2, 4)))),
+       landmark_cov=st.one_of(GARBAGE, st.just(np.tile(np.eye(2), (2, 1, 1)))),
+       values=st.one_of(GARBAGE, st.just(np.ones((3, 2))), st.just(np.ones((3, 4)))),
+       observation_cov=st.one_of(GARBAGE, st.just(np.tile(np.eye(2), (3, 1, 1)))),
+       model=st.one_of(st.sampled_from(['point_map', 'point_robot', 'range_bearing', 'box']),
+                       GARBAGE),
+       algorithm=st.one_of(st.sampled_from(available_algorithms()), GARBAGE),
+       pose=st.one_of(st.none(), GARBAGE, st.just(RobotPose([0, 0, 0], np.eye(3)))),
+       gate=st.one_of(st.floats(), GARBAGE), extra=st.dictionaries(
+           st.sampled_from(['time_budget_ms', 'max_nodes', 'one_to_one', 'euclidean_gate',
+                            'iou_threshold', 'unknown_parameter']), GARBAGE, max_size=2))
+def test_any_python_values_raise_only_invalid_input(ids, means, landmark_cov, values,
+                                                    observation_cov, model, algorithm, pose,
+                                                    gate, extra):
+    """Whatever the caller passes, the library answers or raises InvalidInputError."""
+    try:
+        result = associate(Landmarks(ids, means, landmark_cov),
+                           Observations(values, observation_cov, model), algorithm,
+                           pose=pose, gate_probability=gate, **extra)
+    except InvalidInputError:
+        return
+    assert len(result.assignment) == len(result.nis)

@@ -89,3 +89,18 @@ def test_jcbb_is_the_most_precise_on_clutter_range_bearing(live_runs):
                  .summary()['pair_precision'] for a in ('jcbb', 'mahalanobis_nn', 'gnn')}
     assert precision['jcbb'] > precision['mahalanobis_nn']
     assert precision['jcbb'] > precision['gnn']
+
+
+def test_node_killed_mid_replay_is_restarted_and_the_gap_reported(tmp_path, capsys):
+    from data_association_ros.bag.replay import main
+    code = main([str(BAGS / 'exploration'), '--algorithm', 'gnn', '--out',
+                 str(tmp_path / 'out'), '--rate', '2', '--kill-node-after', '20'])
+    printed = capsys.readouterr().out
+    assert code == 0, printed
+    assert 'node killed and restarted after message 20' in printed
+    gap = printed.split('unanswered observation messages (0-based, in sending order): ')[1]
+    bounds = [int(v) for v in gap.split()[0].rstrip(',').split('-')]
+    first, last = bounds[0], bounds[-1]
+    assert 18 <= first <= 20 and first <= last < 59  # the gap starts at the kill, then answers
+    recorded = list(BagReader(tmp_path / 'out').messages([topics.CORRESPONDENCES]))
+    assert 0 < len(recorded) < 60

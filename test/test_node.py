@@ -352,3 +352,18 @@ def test_new_landmark_announced_only_after_confirmation_with_candidates_shown(gr
     np.testing.assert_allclose(new['x'], [30.01, 30.01], atol=1e-4)
     np.testing.assert_array_equal(candidates['hits'], [1])  # the (50, 50) stray is pending
     assert graph.node.statistics.candidates_confirmed == 1
+
+
+def test_when_landmarks_stop_the_last_map_serves_until_max_landmark_age(graph):
+    publish_map(graph, stamp=1.0)
+    settle(graph)
+    answered = []
+    for k in range(1, 9):  # observations 0.25 s apart after the last map
+        stamp = 1.0 + 0.25 * k
+        before = len(graph.received['correspondences'])
+        graph.publisher(PointCloud2, 'observations').publish(
+            cloud({'x': [4.0], 'y': [0.0]}, stamp))
+        graph.spin_until(lambda: len(graph.received['correspondences']) > before, 0.5)
+        answered.append(len(graph.received['correspondences']) > before)
+    assert answered == [True] * 4 + [False] * 4  # ages 0.25-1.0 s answered, 1.25-2.0 s not
+    assert graph.node.statistics.skipped['no_landmarks'] == 4

@@ -40,10 +40,31 @@ class ReplayResult:
     node_alive: bool = True
     node_log: str = ''
     recorded: list = field(default_factory=list)  # (topic, msg, log time ns)
+    restarted_after: Optional[int] = None  # observation messages sent before a forced restart
 
     @property
     def ok(self) -> bool:
         return self.node_alive and self.answered >= self.sent
+
+    def unanswered(self) -> list[int]:
+        """Indices (0-based, in sending order) of the observation messages never answered."""
+        answered = {_stamp_key(m) for t, m, _ in self.recorded if t == topics.CORRESPONDENCES}
+        sent = [_stamp_key(m) for t, m, _ in self.recorded if t == topics.OBSERVATIONS]
+        return [k for k, key in enumerate(sent) if key not in answered]
+
+    def gaps(self) -> list[tuple[int, int]]:
+        """The unanswered messages as inclusive index ranges [(first, last), ...]."""
+        ranges: list[tuple[int, int]] = []
+        for k in self.unanswered():
+            if ranges and ranges[-1][1] == k - 1:
+                ranges[-1] = (ranges[-1][0], k)
+            else:
+                ranges.append((k, k))
+        return ranges
+
+
+def _stamp_key(msg) -> tuple[int, int]:
+    return msg.header.stamp.sec, msg.header.stamp.nanosec
 
 
 def _progress(done: int, total: int) -> None:
@@ -57,8 +78,10 @@ def _progress(done: int, total: int) -> None:
 
 
 def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 1.0,
-           progress: bool = True) -> ReplayResult:
-    """Play `bag` into a fresh association_node; the answers recorded (see module doc)."""
+           progress: bool = True, restart_after: Optional[int] = None) -> ReplayResult:
+    """Play `bag` into a fresh association_node; the answers recorded (see module doc).
+    restart_after: kill the node (SIGKILL) after that many observation messages and start a
+    new one without waiting for it (fault injection: what is sent meanwhile is lost)."""
     use_loopback_dds()
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -76,7 +99,9 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
     command = [sys.executable, '-m', 'data_association_ros.node', '--ros-args',
                '-p', f'algorithm:={algorithm}', *ros_arguments(parameters),
                '-p', 'qos_depth:=1000']
-    process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+    def start_node():
+        return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+    process = start_node()
     context = rclpy.Context()
     rclpy.init(context=context)
     node = rclpy.create_node('da_bag_replay', context=context)
@@ -116,13 +141,20 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
                 if progress:
                     _progress(result.sent, total)
             publishers[topic].publish(msg)
+            if topic == topics.OBSERVATIONS and result.sent == restart_after:
+                process.kill()
+                process.wait()
+                process = start_node()
+                result.restarted_after = result.sent
             if process.poll() is not None:
                 break
         deadline = time.monotonic() + WAIT_FOR_ANSWERS_S
         while time.monotonic() < deadline and process.poll() is None:
             result.answered = sum(1 for t, _, _ in result.recorded
                                   if t == topics.CORRESPONDENCES)
-            if result.answered >= result.sent:
+            if result.answered >= result.sent or (
+                    result.restarted_after is not None and result.sent - 1 not in
+                    result.unanswered()):
                 break
             executor.spin_once(timeout_sec=0.05)
         # the outputs published after the last correspondences (new_landmarks) are still on
@@ -166,18 +198,30 @@ def main(argv: Optional[list[str]] = None) -> int:
                         help='playback rate factor (0: as fast as the answers allow)')
     parser.add_argument('-p', dest='parameters', action='append', default=[],
                         metavar='NAME:=VALUE', help='node parameter (repeatable)')
+    parser.add_argument('--kill-node-after', type=int, metavar='N',
+                        help='fault injection: kill the node after N observation messages and '
+                             'start a new one; the gap is reported')
     args = parser.parse_args(argv)
     try:
         parameters = {**bag_parameters(args.bag), **parse_assignments(args.parameters)}
-        result = replay(args.bag, args.algorithm, parameters, args.rate)
+        result = replay(args.bag, args.algorithm, parameters, args.rate,
+                        restart_after=args.kill_node_after)
     except (BagError, ValueError) as error:
         print(f'da_bag_replay: {error}', file=sys.stderr)
         return 2
     write_recording(args.out, result)
     print(f'{args.out}: {result.sent} observation messages sent, {result.answered} answered')
+    gaps = result.gaps()
+    if gaps:
+        print('unanswered observation messages (0-based, in sending order): ' + ', '.join(
+            f'{a}' if a == b else f'{a}-{b}' for a, b in gaps))
     if not result.node_alive:
         print(f'da_bag_replay: association_node died:\n{result.node_log[-2000:]}', file=sys.stderr)
         return 1
+    if result.restarted_after is not None:
+        print(f'node killed and restarted after message {result.restarted_after}')
+        # the restarted node must answer again: nothing unanswered after the first gap
+        return 0 if len(gaps) <= 1 and (not gaps or gaps[0][1] < result.sent - 1) else 1
     if result.answered < result.sent:
         print(f'da_bag_replay: {result.sent - result.answered} answers missing; node log:\n'
               f'{result.node_log[-2000:]}', file=sys.stderr)

@@ -15,7 +15,7 @@ import numpy as np
 from .errors import InvalidInputError
 from .models import MODELS, MeasurementModel
 from .types import Landmarks, Observations, RobotPose
-from .validation import as_float_array, check_shape
+from .validation import as_float_array, check_covariance_matrix, check_shape
 
 
 def symmetric_quadratic_form(vectors: np.ndarray, matrices: np.ndarray) -> np.ndarray:
@@ -30,14 +30,20 @@ def symmetric_quadratic_form(vectors: np.ndarray, matrices: np.ndarray) -> np.nd
     return total
 
 
-def _positive_semi_definite(matrix: np.ndarray, tolerance: float) -> bool:
-    """Whether the symmetric matrix's eigenvalues are all >= -tolerance: Cholesky of
-    matrix + 2 tolerance I (several times cheaper than an eigendecomposition)."""
+def _inverses(matrices: np.ndarray) -> np.ndarray:
+    """Inverses of a stack (..., m, m); NaN for the numerically singular ones (then one matrix
+    at a time, a rare path)."""
     try:
-        np.linalg.cholesky(matrix + 2.0 * tolerance * np.eye(len(matrix)))
+        return np.linalg.inv(matrices)
     except np.linalg.LinAlgError:
-        return False
-    return True
+        flat = matrices.reshape(-1, *matrices.shape[-2:])
+        out = np.full(flat.shape, np.nan)
+        for k, matrix in enumerate(flat):
+            try:
+                out[k] = np.linalg.inv(matrix)
+            except np.linalg.LinAlgError:
+                pass
+        return out.reshape(matrices.shape)
 
 
 class AssociationProblem:
@@ -70,12 +76,7 @@ class AssociationProblem:
             size = 3 + len(landmarks) * landmarks.dim
             matrix = as_float_array(state_covariance, 'state_covariance', 2)
             check_shape(matrix, 'state_covariance', (size, size))
-            scale = 1.0 + np.abs(matrix).max(initial=0.0)
-            if np.abs(matrix - matrix.T).max(initial=0.0) > 1e-9 * scale:
-                raise InvalidInputError('state_covariance: not symmetric')
-            if size and not _positive_semi_definite(matrix, 1e-9 * scale):
-                raise InvalidInputError('state_covariance: not positive semi-definite')
-            self.state_covariance = matrix
+            self.state_covariance = check_covariance_matrix(matrix, 'state_covariance')
 
     @property
     def sizes(self) -> tuple[int, int]:
@@ -210,10 +211,14 @@ class AssociationProblem:
             return np.zeros((k, n))
         nu = self.innovations
         shared = self._shared_innovation_covariances
-        if shared is not None:
-            return symmetric_quadratic_form(nu, np.linalg.inv(shared))
-        solved = np.linalg.solve(self.innovation_covariances, nu[..., None])[..., 0]
-        return np.einsum('knm,knm->kn', nu, solved)
+        with np.errstate(invalid='ignore', over='ignore'):
+            if shared is not None:
+                d2 = symmetric_quadratic_form(nu, _inverses(shared))
+            else:
+                inverse = _inverses(self.innovation_covariances)
+                d2 = np.einsum('knm,knm->kn', nu, np.einsum('knab,knb->kna', inverse, nu))
+        # a numerically singular S (absurd magnitudes): that pair can never be gated
+        return np.where(np.isfinite(d2) & (d2 >= 0), d2, np.inf)
 
     @cached_property
     def log_likelihoods(self) -> np.ndarray:
@@ -224,7 +229,9 @@ class AssociationProblem:
         shared = self._shared_innovation_covariances
         _, logdet = np.linalg.slogdet(2.0 * np.pi * (
             self.innovation_covariances if shared is None else shared))
-        return -0.5 * (self.nis + logdet)
+        with np.errstate(invalid='ignore'):
+            loglik = -0.5 * (self.nis + logdet)
+        return np.where(np.isfinite(loglik), loglik, -np.inf)
 
     @cached_property
     def euclidean_distances(self) -> np.ndarray:

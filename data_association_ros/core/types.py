@@ -68,7 +68,8 @@ class Landmarks:
             if ids_array.size == 0:
                 ids_array = np.zeros(0, dtype=np.int64)
             if ids_array.dtype.kind == 'f':
-                if not np.all(np.isfinite(ids_array)) or np.any(ids_array != np.round(ids_array)):
+                if not np.all(np.isfinite(ids_array)) or np.any(
+                        ids_array != np.round(ids_array)) or np.any(np.abs(ids_array) > 2 ** 62):
                     raise TypeError('ids must be integers')
             if ids_array.dtype.kind not in 'iuf':
                 raise TypeError(f'dtype {ids_array.dtype}')
@@ -114,7 +115,7 @@ class Observations:
     model: str
 
     def __init__(self, values, covariances=None, model: str = 'point_map') -> None:
-        if model not in MEASUREMENT_DIMENSIONS:
+        if not isinstance(model, str) or model not in MEASUREMENT_DIMENSIONS:
             raise InvalidInputError(
                 f'observations.model: unknown model {model!r} (valid: '
                 f'{", ".join(MEASUREMENT_DIMENSIONS)})')

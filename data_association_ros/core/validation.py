@@ -48,3 +48,19 @@ def check_spd(matrices: np.ndarray, field: str) -> None:
     if bad.size:
         raise InvalidInputError(
             f'{field}[{bad[0]}]: not positive definite (smallest eigenvalue {smallest[bad[0]]:.3g})')
+
+
+def check_covariance_matrix(value, field: str) -> np.ndarray:
+    """A finite, symmetric, positive semi-definite square matrix (float64); eigenvalues down to
+    -1e-9 x (1 + max |entry|) are accepted, tested by Cholesky of the matrix plus twice that."""
+    matrix = as_float_array(value, field, 2)
+    check_shape(matrix, field, (matrix.shape[0], matrix.shape[0]))
+    scale = 1.0 + np.abs(matrix).max(initial=0.0)
+    if np.abs(matrix - matrix.T).max(initial=0.0) > 1e-9 * scale:
+        raise InvalidInputError(f'{field}: not symmetric')
+    if len(matrix):
+        try:
+            np.linalg.cholesky(matrix + 2e-9 * scale * np.eye(len(matrix)))
+        except np.linalg.LinAlgError:
+            raise InvalidInputError(f'{field}: not positive semi-definite') from None
+    return matrix
