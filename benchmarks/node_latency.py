@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import os
 import random
-import signal
 import subprocess
 import sys
 import time
@@ -31,6 +30,7 @@ from std_msgs.msg import Header  # noqa: E402
 
 from msg_adapters import array_to_cloud  # noqa: E402
 from msg_adapters.outputs import CORRESPONDENCE_DTYPE  # noqa: E402
+from ros_process import close, wait_until_matched  # noqa: E402
 
 QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -94,10 +94,7 @@ def measure(namespace: str, command: list[str], args, landmark_points, observati
     observations_pub = node.create_publisher(PointCloud2, 'observations', QOS)
     pose_pub = node.create_publisher(Odometry, 'robot_pose', QOS)
     try:
-        deadline = time.monotonic() + 30
-        while (observations_pub.get_subscription_count() == 0
-               or node.count_publishers('correspondences') == 0) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
+        wait_until_matched(executor, node, observations_pub, 'correspondences')
         latencies = []
         for k in range(args.messages + args.warmup):
             stamp = Header()
@@ -126,13 +123,7 @@ def measure(namespace: str, command: list[str], args, landmark_points, observati
                 latencies.append((received[key] - sent) * 1000.0)
         return np.array(latencies)
     finally:
-        executor.remove_node(node)
-        node.destroy_node()
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
+        close(executor, node, process)
 
 
 def main() -> None:

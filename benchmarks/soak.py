@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import os
 import random
-import signal
 import subprocess
 import sys
 import time
@@ -32,6 +31,7 @@ from sensor_msgs.msg import PointCloud2  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
 
 from msg_adapters import array_to_cloud  # noqa: E402
+from ros_process import close, wait_until_matched  # noqa: E402
 from node_latency import QOS, scene  # noqa: E402
 from run_benchmarks import machine_line  # noqa: E402
 
@@ -91,10 +91,7 @@ def soak(algorithm: str, rate: float, args, index: int) -> dict:
     pose_pub = node.create_publisher(Odometry, 'robot_pose', QOS)
     landmark_points, observation_points, pose = scene(args.observations, args.landmarks)
     try:
-        deadline = time.monotonic() + 30
-        while (observations_pub.get_subscription_count() == 0
-               or node.count_publishers('correspondences') == 0) and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
+        wait_until_matched(executor, node, observations_pub, 'correspondences')
         map_header = Header(frame_id='map')
         map_header.stamp.sec = 999
         landmarks_pub.publish(array_to_cloud(landmark_points, map_header))
@@ -149,13 +146,7 @@ def soak(algorithm: str, rate: float, args, index: int) -> dict:
                 'truncations': diagnostics.get('search_truncations', '?'),
                 'alive': process.poll() is None}
     finally:
-        executor.remove_node(node)
-        node.destroy_node()
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
+        close(executor, node, process)
 
 
 def main() -> None:
