@@ -27,10 +27,13 @@ setup(
     description='Data association (NN, ML, GNN, JCBB, IoU) as a ROS 2 node and a numpy library.',
     license='Apache-2.0',
     extras_require={'test': ['pytest', 'hypothesis'],
-                    'benchmarks': ['matplotlib', 'stonesoup']},
+                    'benchmarks': ['matplotlib', 'stonesoup'], 'mot': ['trackeval']},
     entry_points={
         'console_scripts': [
             'association_node = data_association_ros.node:main',
+            'box_tracker_node = data_association_ros.box_tracker_node:main',
+            'da_make_mot_bag = data_association_ros.bag.mot:make_main',
+            'da_mot_eval = data_association_ros.bag.mot:eval_main',
             'da_demo = data_association_ros.demo:main',
             'da_bag_replay = data_association_ros.bag.replay:main',
             'da_bag_eval = data_association_ros.bag.evaluate:main',

@@ -6,16 +6,12 @@ matching, adapters, the core) is AssociationPipeline's.  No input is ever fatal.
 from __future__ import annotations
 
 import sys
-from typing import Any, Optional
+from typing import Optional
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                SetParametersResult)
-from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Float64MultiArray
@@ -24,46 +20,23 @@ from visualization_msgs.msg import MarkerArray
 from msg_adapters import diagnostics_message
 
 from .core import InvalidInputError
-from .node_parameters import BY_NAME, NODE_PARAMETERS, NodeParameter, check_combination
+from .node_parameters import NODE_PARAMETERS, check_combination
+from .parameterized_node import ParameterizedNode
 from .pipeline import AssociationPipeline
 
 
-def _descriptor(parameter: NodeParameter) -> ParameterDescriptor:
-    spec = parameter.spec
-    descriptor = ParameterDescriptor(
-        name=parameter.name, read_only=parameter.read_only,
-        description=f'{parameter.description} (valid: {parameter.range_text()})')
-    if spec is not None and spec.low is not None and spec.high is not None:
-        if spec.kind is float:
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(spec.low), to_value=float(spec.high), step=0.0)]
-        elif spec.kind is int:
-            descriptor.integer_range = [IntegerRange(from_value=int(spec.low),
-                                                     to_value=int(spec.high), step=0)]
-    return descriptor
-
-
-class AssociationNode(Node):
+class AssociationNode(ParameterizedNode):
     """The association node (node name `association_node`, topics relative, DESIGN.md 4)."""
 
     def __init__(self, **kwargs) -> None:
-        super().__init__('association_node', **kwargs)
-        config: dict[str, Any] = {}
-        for parameter in NODE_PARAMETERS:
-            self.declare_parameter(parameter.name, parameter.default, _descriptor(parameter))
-            try:
-                config[parameter.name] = parameter.check(self.get_parameter(parameter.name).value)
-            except InvalidInputError as error:
-                self.get_logger().error(f'{error}; using the default {parameter.default!r}')
-                config[parameter.name] = parameter.default
+        super().__init__('association_node', NODE_PARAMETERS, check_combination, **kwargs)
+        config = self.config
         try:
             check_combination(config)
         except InvalidInputError as error:
             config['confirm_window'] = max(config['confirm_window'], config['confirm_hits'])
             self.get_logger().error(f'{error}; using confirm_window {config["confirm_window"]}')
         self.pipeline = AssociationPipeline(config, warn=self.get_logger().warning)
-        self.add_on_set_parameters_callback(self._validate_parameters)
-        self.add_post_set_parameters_callback(self._apply_parameters)
 
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
             ReliabilityPolicy.BEST_EFFORT if config['input_qos'] == 'sensor_data'
@@ -90,41 +63,9 @@ class AssociationNode(Node):
                                f'measurement_model {config["measurement_model"]}')
 
     @property
-    def config(self) -> dict[str, Any]:
-        """The parameter values in force."""
-        return self.pipeline.config
-
-    @property
     def statistics(self):
         """Counters and latency (AssociationStatistics)."""
         return self.pipeline.statistics
-
-    # validate in one callback, apply in another (a rejected set changes nothing)
-    def _validate_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
-        trial = dict(self.config)
-        for parameter in parameters:
-            known = BY_NAME.get(parameter.name)
-            if known is None:
-                continue
-            try:
-                trial[parameter.name] = known.check(parameter.value)
-            except InvalidInputError as error:
-                return SetParametersResult(successful=False, reason=str(error))
-        try:
-            check_combination(trial)
-        except InvalidInputError as error:
-            return SetParametersResult(successful=False, reason=str(error))
-        return SetParametersResult(successful=True)
-
-    def _apply_parameters(self, parameters: list[Parameter]) -> None:
-        for parameter in parameters:
-            known = BY_NAME.get(parameter.name)
-            if known is None:
-                continue
-            old = self.config.get(parameter.name)
-            self.config[parameter.name] = known.check(parameter.value)
-            self.get_logger().info(f'{parameter.name}: {old!r} -> {self.config[parameter.name]!r}'
-                                   ' (from the next message)')
 
     def _on_observations(self, msg: PointCloud2) -> None:
         answer = self.pipeline.answer(msg)

@@ -83,7 +83,8 @@ def observation_clouds(stamp):
 
 
 def set_parameters(graph, **values):
-    client = graph.tester.create_client(SetParameters, '/association_node/set_parameters')
+    client = graph.tester.create_client(SetParameters,
+                                        f'/{graph.node.get_name()}/set_parameters')
     assert client.wait_for_service(timeout_sec=5.0)
     request = SetParameters.Request()
     for name, value in values.items():
