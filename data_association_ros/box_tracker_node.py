@@ -8,11 +8,9 @@ association_node can take them as its landmarks.  A malformed message is counted
 """
 from __future__ import annotations
 
-import sys
 from typing import Optional
 
 import numpy as np
-import rclpy
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 
@@ -23,7 +21,7 @@ from .core.associators import REGISTRY
 from .core.parameters import ParameterSpec
 from .core.tracking import BoxTracker
 from .node_parameters import BY_NAME, NodeParameter
-from .parameterized_node import ParameterizedNode
+from .parameterized_node import ParameterizedNode, spin
 
 TRACK_DTYPE = np.dtype([('id', '<i4'), ('x', '<f4'), ('y', '<f4'), ('width', '<f4'),
                         ('height', '<f4')])
@@ -87,16 +85,7 @@ class BoxTrackerNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `box_tracker_node` executable."""
-    rclpy.init(args=args if args is not None else sys.argv)
-    node = BoxTrackerNode()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+    spin(BoxTrackerNode, args)
 
 
 if __name__ == '__main__':

@@ -5,10 +5,8 @@ matching, adapters, the core) is AssociationPipeline's.  No input is ever fatal.
 """
 from __future__ import annotations
 
-import sys
 from typing import Optional
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
@@ -21,7 +19,7 @@ from msg_adapters import diagnostics_message
 
 from .core import InvalidInputError
 from .node_parameters import NODE_PARAMETERS, check_combination
-from .parameterized_node import ParameterizedNode
+from .parameterized_node import ParameterizedNode, spin
 from .pipeline import AssociationPipeline
 
 
@@ -95,16 +93,7 @@ class AssociationNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `association_node` executable."""
-    rclpy.init(args=args if args is not None else sys.argv)
-    node = AssociationNode()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+    spin(AssociationNode, args)
 
 
 if __name__ == '__main__':

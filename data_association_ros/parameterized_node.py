@@ -2,7 +2,10 @@
 validated in one callback (with a cross-parameter check), applied in another (DESIGN.md 4)."""
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+import sys
+from typing import Any, Callable, Optional, Sequence
+
+import rclpy
 
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
@@ -75,3 +78,17 @@ class ParameterizedNode(Node):
             self.get_logger().info(f'{parameter.name}: {old!r} -> {self.config[parameter.name]!r}'
                                    ' (from the next message)')
         self.on_change()
+
+
+def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None) -> None:
+    """Entry point of an executable: init, spin `node_class()` until Ctrl-C or shutdown."""
+    rclpy.init(args=args if args is not None else sys.argv)
+    node = node_class()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()

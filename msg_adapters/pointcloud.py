@@ -5,7 +5,7 @@ row_step padding, height > 1 and big-endian data; rejects count != 1.  No per-po
 """
 from __future__ import annotations
 
-from typing import Mapping, Optional, Sequence, Union
+from typing import Mapping, Sequence, Union
 
 import numpy as np
 from sensor_msgs.msg import PointCloud2, PointField

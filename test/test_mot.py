@@ -14,7 +14,6 @@ points above), with at most one ID switch more than measured.  The covariance-ga
 with SORT's noise (sigma 1 px on the centre) reject most true pairs: MOTA stays below 5 %; with
 noise_scale 30 they recover to 45-55 % but stay below `iou`, which a test pins as well.
 """
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -3,7 +3,6 @@ the parameter service, malformed input, and the executable as a separate process
 import os
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -14,7 +13,7 @@ from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from sensor_msgs.msg import PointCloud2, PointField
 
-from data_association_ros import (NEW, UNASSOCIATED, Landmarks, Observations, RobotPose,
+from data_association_ros import (NEW, Landmarks, Observations, RobotPose,
                                   associate)
 from data_association_ros.node import AssociationNode
 from ros_harness import Graph, cloud, correspondences, header, odometry, wait_reply

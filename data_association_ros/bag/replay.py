@@ -9,7 +9,6 @@ missing.  DDS stays on loopback with a domain id of its own.
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import subprocess
 import sys
