@@ -1,0 +1,29 @@
+"""SE(2) odometry: pose (x, y, yaw) composed with an increment (dx, dy, dyaw) in the robot frame:
+x' = x + R(yaw) (dx, dy),  yaw' = yaw + dyaw (wrapped)."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..models.base import wrap_angle
+
+
+def compose(pose: np.ndarray, increment: np.ndarray) -> np.ndarray:
+    """Poses (..., 3) moved by increments (..., 3) (broadcast)."""
+    pose, increment = np.asarray(pose, dtype=float), np.asarray(increment, dtype=float)
+    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+    out = np.empty(np.broadcast_shapes(pose.shape, increment.shape))
+    out[..., 0] = pose[..., 0] + c * increment[..., 0] - s * increment[..., 1]
+    out[..., 1] = pose[..., 1] + s * increment[..., 0] + c * increment[..., 1]
+    out[..., 2] = wrap_angle(pose[..., 2] + increment[..., 2])
+    return out
+
+
+def compose_jacobians(pose: np.ndarray, increment: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(d compose / d pose (3, 3), d compose / d increment (3, 3)) at one pose."""
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    g = np.eye(3)
+    g[0, 2] = -s * increment[0] - c * increment[1]
+    g[1, 2] = c * increment[0] - s * increment[1]
+    v = np.eye(3)
+    v[:2, :2] = [[c, -s], [s, c]]
+    return g, v
