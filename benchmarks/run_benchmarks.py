@@ -14,6 +14,7 @@ Sections:
   seed       seed 003's approximate Cholesky joint NIS versus the exact incremental one
   budget     jcbb's time_budget_ms: elapsed time and overshoot on searches that need longer
              (a dense scan; every observation compatible with every landmark, K = 40)
+  multi_hypothesis  the re-evaluation experiment of Shelly & Indelman (multi_hypothesis_experiment.py)
 Timings are per call of the public associate() (inputs built beforehand); ratios compare
 runs in the same process on the same machine.
 """
@@ -42,7 +43,7 @@ from scenes import Scene, bag_scenes, box_scene, point_map_scene, range_bearing_
 from seed_approximate_jnis import approximate_nis, search_pairs  # noqa: E402
 from timing import median_p95_ms, time_calls  # noqa: E402
 
-SECTIONS = ('sweep', 'jcbb', 'stonesoup', 'seed', 'budget')
+SECTIONS = ('sweep', 'jcbb', 'stonesoup', 'seed', 'budget', 'multi_hypothesis')
 
 
 def machine_line() -> str:
@@ -258,6 +259,18 @@ def budget(budgets_ms: list[float], repeats: int, nodes: int = 200_000) -> str:
                   'max elapsed ms', 'median overshoot %', 'max overshoot %'], rows)
 
 
+def multi_hypothesis(out: Path) -> str:
+    """Section multi_hypothesis: the Shelly & Indelman experiment (its own script)."""
+    import io
+    from contextlib import redirect_stdout
+
+    import multi_hypothesis_experiment
+    buffer = io.StringIO()
+    with redirect_stdout(buffer):
+        multi_hypothesis_experiment.main(['--out', str(out / 'multi_hypothesis')])
+    return buffer.getvalue()
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--sections', default=','.join(SECTIONS),
@@ -281,6 +294,7 @@ def main(argv=None) -> int:
         'jcbb': lambda: fast_versus_reference(scans),
         'stonesoup': lambda: stone_soup([10, 50] if quick else [10, 50, 200], 1 if quick else 3),
         'seed': lambda: seed_approximation(scans),
+        'multi_hypothesis': lambda: multi_hypothesis(args.out),
         'budget': lambda: budget([10.0, 50.0] if quick else [10.0, 50.0, 100.0],
                                  2 if quick else 30, 20_000 if quick else 200_000),
     }

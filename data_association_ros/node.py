@@ -46,6 +46,7 @@ class AssociationNode(ParameterizedNode):
         self.create_subscription(Odometry, 'robot_pose', self.pipeline.on_robot_pose, qos)
         self.create_subscription(Float64MultiArray, 'state_covariance',
                                  self.pipeline.on_state_covariance, qos)
+        self.create_subscription(Odometry, 'odometry', self.pipeline.on_odometry, qos)
         # Created last: when inputs of one scan wait together, the executor serves
         # subscriptions in creation order, so map and pose are taken before the scan.
         self.create_subscription(PointCloud2, 'observations', self._on_observations, qos)
@@ -53,6 +54,8 @@ class AssociationNode(ParameterizedNode):
         self.new_landmarks_pub = self.create_publisher(PointCloud2, 'new_landmarks', 10)
         self.candidates_pub = self.create_publisher(PointCloud2, 'landmark_candidates', 10)
         self.markers_pub = self.create_publisher(MarkerArray, 'association_markers', 10)
+        self.hypotheses_pub = self.create_publisher(PointCloud2, 'pose_hypotheses', 10)
+        self.past_pub = self.create_publisher(PointCloud2, 'past_associations', 10)
         self.transform_pub = self.create_publisher(PoseWithCovarianceStamped,
                                                    'estimated_transform', 10)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
@@ -76,6 +79,9 @@ class AssociationNode(ParameterizedNode):
             self.candidates_pub.publish(answer.candidates)
         if answer.markers is not None:
             self.markers_pub.publish(answer.markers)
+        if answer.pose_hypotheses is not None:
+            self.hypotheses_pub.publish(answer.pose_hypotheses)
+            self.past_pub.publish(answer.past_associations)
         if answer.transform is not None:
             self.transform_pub.publish(answer.transform)
 

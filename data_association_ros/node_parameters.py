@@ -14,6 +14,7 @@ from .core.associators import REGISTRY
 from .core.candidates import check_confirmation
 from .core.parameters import ParameterSpec
 
+MULTI_HYPOTHESIS = 'multi_hypothesis'
 MEASUREMENT_MODELS = ('auto', 'point_map', 'point_robot', 'range_bearing', 'box')
 
 
@@ -70,8 +71,9 @@ def _from_spec(spec: ParameterSpec, default=None, read_only: bool = False) -> No
 
 _CORE = _core_specs()
 NODE_PARAMETERS: tuple[NodeParameter, ...] = (
-    NodeParameter('algorithm', 'mahalanobis_nn', 'associator, switchable at run time',
-                  choices=available_algorithms()),
+    NodeParameter('algorithm', 'mahalanobis_nn', 'associator, switchable at run time '
+                  '(multi_hypothesis: the pose-hypothesis tree over scans, needs odometry)',
+                  choices=available_algorithms() + (MULTI_HYPOTHESIS,)),
     NodeParameter('measurement_model', 'auto',
                   'auto: range/bearing fields -> range_bearing; width/height -> box; x/y in the '
                   "landmarks' frame -> point_map; x/y in another frame -> point_robot",
@@ -92,6 +94,20 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
     NodeParameter('candidate_max_misses', 2,
                   'a candidate not seen on this many scans in a row is dropped',
                   spec=ParameterSpec('candidate_max_misses', 2, '', kind=int, low=1, high=1000)),
+    NodeParameter('reevaluation_window', 5, 'multi_hypothesis: past steps re-evaluated and '
+                  'published on past_associations', spec=ParameterSpec(
+                      'reevaluation_window', 5, '', kind=int, low=1, high=1000)),
+    NodeParameter('mh_fov_range', 1000.0, 'multi_hypothesis: landmarks within this range [m] of '
+                  'a hypothesis can explain an observation (all when none is)',
+                  spec=ParameterSpec('mh_fov_range', 1000.0, '', low=0.0, low_open=True)),
+    NodeParameter('mh_prune_threshold', 0.005, 'multi_hypothesis: hypotheses lighter than this '
+                  'are pruned', spec=ParameterSpec('mh_prune_threshold', 0.005, '', low=0.0,
+                                                   high=1.0, high_open=True)),
+    NodeParameter('mh_max_leaves', 200, 'multi_hypothesis: at most this many hypotheses',
+                  spec=ParameterSpec('mh_max_leaves', 200, '', kind=int, low=1, high=100000)),
+    NodeParameter('mh_merge_threshold', 0.0, 'multi_hypothesis: merge hypotheses closer than '
+                  'this squared Mahalanobis distance (0: never)',
+                  spec=ParameterSpec('mh_merge_threshold', 0.0, '', low=0.0)),
     NodeParameter('max_pairs', 5_000_000,
                   'an observation message with more observations x landmarks than this is '
                   'skipped (counted as too_large): bounds memory and time per message',
@@ -139,6 +155,8 @@ def check_combination(config: dict[str, Any]) -> None:
 
 def algorithm_arguments(config: dict[str, Any]) -> dict[str, Any]:
     """The keyword arguments of `associate` for config['algorithm'] taken from the node config."""
+    if config['algorithm'] not in REGISTRY:
+        return {}
     associator = REGISTRY[config['algorithm']]
     return {spec.name: config[spec.name] for spec in associator.parameters
             if spec.name in config}

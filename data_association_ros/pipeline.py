@@ -15,16 +15,17 @@ from typing import Any, Callable, Optional
 import numpy as np
 from std_msgs.msg import Header
 
-from msg_adapters import (PointCloudFormatError, association_markers, candidates_cloud,
-                          cloud_to_array, correspondences_cloud, detect_model, joint_covariance_from_array,
+from msg_adapters import (PointCloudFormatError, array_to_cloud, association_markers,
+                          candidates_cloud, cloud_to_array, correspondences_cloud, detect_model, joint_covariance_from_array,
                           landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
                           observations_from_points, pose_from_odometry, transform_message)
 
-from .core import NEW, Association, InvalidInputError, Landmarks, associate
+from .core import NEW, Association, InvalidInputError, Landmarks, RobotPose, associate
 from .core.candidates import CandidateManager, CandidateUpdate
 from .core.initialisation import observations_in_map
 from .core.models import MODELS
-from .node_parameters import algorithm_arguments
+from .multi_hypothesis_stage import MultiHypothesisStage
+from .node_parameters import MULTI_HYPOTHESIS, algorithm_arguments
 from .stamped_buffer import StampedBuffer
 from .statistics import AssociationStatistics
 
@@ -55,6 +56,8 @@ class Answer:
     association: Association
     transform: Optional[Any] = None
     candidates: Optional[Any] = None
+    pose_hypotheses: Optional[Any] = None
+    past_associations: Optional[Any] = None
 
 
 class AssociationPipeline:
@@ -70,6 +73,8 @@ class AssociationPipeline:
         self.pose_history: StampedBuffer = StampedBuffer(200)
         self.state_covariance: Optional[np.ndarray] = None
         self.candidates = CandidateManager()
+        self.odometry_history: StampedBuffer = StampedBuffer(200)
+        self.multi_hypothesis = MultiHypothesisStage()
 
     def _reject(self, counter, cause: str, text: str) -> None:
         counter[cause] += 1
@@ -111,6 +116,15 @@ class AssociationPipeline:
             return
         self.pose_history.add(stamp_ns(msg.header), pose)
 
+    def on_odometry(self, msg) -> None:
+        """A nav_msgs/Odometry from wheel odometry (multi_hypothesis motion increments)."""
+        try:
+            odometry = pose_from_odometry(msg)
+        except INPUT_ERRORS as error:
+            self._invalid('odometry', error)
+            return
+        self.odometry_history.add(stamp_ns(msg.header), odometry)
+
     def on_state_covariance(self, msg) -> None:
         """A std_msgs/Float64MultiArray joint covariance [pose, landmarks...]."""
         try:
@@ -144,6 +158,11 @@ class AssociationPipeline:
         model = config['measurement_model']
         if model == 'auto':
             model = detect_model(points.dtype.names or (), msg.header.frame_id, item.frame_id)
+        if config['algorithm'] == MULTI_HYPOTHESIS:
+            return self._answer_multi_hypothesis(config, msg, points, model, item, stamp,
+                                                 started)
+        if self.multi_hypothesis.tree is not None:
+            self.multi_hypothesis.reset()
         pose = None
         if MODELS[model].needs_pose:
             pose, why = self.pose_history.nearest(stamp,
@@ -183,6 +202,32 @@ class AssociationPipeline:
                                       result.truncated)
         self.statistics.record_candidates(len(update.confirmed), len(update.expired),
                                           len(self.candidates.pending))
+        return answer
+
+    def _answer_multi_hypothesis(self, config, msg, points, model, item, stamp: int,
+                                 started: float) -> Optional[Answer]:
+        tolerance = int(config['pose_tolerance'] * NS_PER_S)
+        odometry, why = self.odometry_history.nearest(stamp, tolerance)
+        if odometry is None:
+            self._reject(self.statistics.skipped, 'no_odometry',
+                         f'observation message skipped: odometry {why}')
+            return None
+        prior, _ = self.pose_history.nearest(stamp, tolerance)
+        observations = observations_from_points(points, model, config['observation_noise'])
+        association, hypotheses, past = self.multi_hypothesis.answer(
+            config, item.landmarks, observations, odometry, prior or odometry, stamp)
+        tree = self.multi_hypothesis.tree
+        best = tree.nodes[max(tree.leaves, key=lambda i: tree.nodes[i].weight)]
+        positions, _ = observations_in_map(observations, RobotPose(best.mean, best.covariance))
+        map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id)
+        answer = Answer(
+            correspondences=correspondences_cloud(msg.header, association, positions,
+                                                  association.extras['probability']),
+            new_landmarks=None, markers=None, association=association,
+            pose_hypotheses=array_to_cloud(hypotheses, map_header),
+            past_associations=array_to_cloud(past, map_header))
+        self.statistics.record_answer(association.assignment,
+                                      (time.perf_counter() - started) * 1e3, False)
         return answer
 
     def _confirm(self, config: dict[str, Any], result: Association, positions: np.ndarray,

@@ -35,6 +35,7 @@ def offline_answers(messages: Iterable[tuple[str, Any]],
     """Feed (topic, message) pairs in order to a pipeline; {observation stamp ns: Answer}."""
     pipeline = AssociationPipeline(config)
     handlers = {topics.LANDMARKS: pipeline.on_landmarks, topics.ROBOT_POSE: pipeline.on_robot_pose,
+                topics.ODOMETRY: pipeline.on_odometry,
                 topics.STATE_COVARIANCE: pipeline.on_state_covariance}
     answers: dict[int, Any] = {}
     for topic, msg in messages:

@@ -38,6 +38,7 @@ class Scan:
     pose: Optional[tuple[np.ndarray, np.ndarray]] = None
     state_covariance: Optional[np.ndarray] = None
     map_frame: str = 'map'
+    odometry: Optional[tuple[np.ndarray, np.ndarray]] = None  # wheel odometry pose, covariance
 
 
 @dataclass(frozen=True)
@@ -219,6 +220,37 @@ def boxes(seed: int = 4) -> list[Scan]:
     return scans
 
 
+def eight_identical_landmarks(seed: int = 0) -> list[Scan]:
+    """Shelly & Indelman's ten-step scenario (core.multi_hypothesis.scenario): eight identical
+    known landmarks, the nearest within 3 m observed as a relative position (sigma 0.48 m) or
+    nothing; wheel odometry on /odometry (the noisy increments integrated, their covariance
+    0.5 m, 1e-3 rad per step); the start pose on /robot_pose at the first scan only."""
+    from ..core.multi_hypothesis.motion import compose
+    from ..core.multi_hypothesis import scenario
+    poses, increments, observations, truth = scenario.simulate(seed)
+    ids = np.arange(8) + 1
+    odometry = poses[0].copy()
+    scans = []
+    for k, (u, z, true) in enumerate(zip(increments, observations, truth), start=1):
+        odometry = compose(odometry, u)
+        seen = z is not None
+        values = np.asarray(z).reshape(-1, 2) if seen else np.zeros((0, 2))
+        r = scenario.MEASUREMENT_NOISE
+        scans.append(Scan(
+            time_ns=int(1e9) + k * 500_000_000, landmark_ids=ids,
+            landmark_means=scenario.LANDMARKS, landmark_covariances=None,
+            observations={'x': values[:, 0], 'y': values[:, 1],
+                          'cov_xx': np.full(len(values), r[0, 0]),
+                          'cov_xy': np.zeros(len(values)),
+                          'cov_yy': np.full(len(values), r[1, 1])},
+            observation_frame='base_link',
+            truth=np.array([ids[true]] if seen else [], dtype=np.int64),
+            truth_xy=scenario.LANDMARKS[[true]] if seen else np.zeros((0, 2)),
+            pose=(poses[0], scenario.MOTION_NOISE) if k == 1 else None,
+            odometry=(odometry, scenario.MOTION_NOISE)))
+    return scans
+
+
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
     Scenario('easy_point_map', easy_point_map.__doc__, easy_point_map),
     Scenario('clutter_range_bearing', clutter_range_bearing.__doc__, clutter_range_bearing,
@@ -226,6 +258,10 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
              parameters={'time_budget_ms': 0.0}),
     Scenario('exploration', exploration.__doc__, exploration),
     Scenario('exploration_clutter', exploration_clutter.__doc__, exploration_clutter),
+    Scenario('eight_identical_landmarks', eight_identical_landmarks.__doc__,
+             eight_identical_landmarks, algorithms=('multi_hypothesis',),
+             parameters={'measurement_model': 'point_robot', 'mh_fov_range': 3.0,
+                         'pose_tolerance': 0.01}),
     Scenario('boxes', boxes.__doc__, boxes,
              algorithms=('iou', 'euclidean_nn', 'mahalanobis_nn', 'gnn', 'jcbb'),
              parameters={'default_landmark_covariance': 16.0, 'observation_noise': [16.0],

@@ -13,11 +13,12 @@ from .scenarios import Scan
 LANDMARKS = '/landmarks'
 OBSERVATIONS = '/observations'
 ROBOT_POSE = '/robot_pose'
+ODOMETRY = '/odometry'
 STATE_COVARIANCE = '/state_covariance'
 GROUND_TRUTH = '/ground_truth/correspondences'
 CORRESPONDENCES = '/correspondences'
 NEW_LANDMARKS = '/new_landmarks'
-INPUT_TOPICS = (LANDMARKS, ROBOT_POSE, STATE_COVARIANCE, OBSERVATIONS)
+INPUT_TOPICS = (LANDMARKS, ROBOT_POSE, ODOMETRY, STATE_COVARIANCE, OBSERVATIONS)
 OUTPUT_TOPICS = (CORRESPONDENCES, NEW_LANDMARKS)
 INPUT_LEAD_NS = 10_000_000
 """Map, pose and joint covariance are logged this long before the scan's observations."""
@@ -66,6 +67,8 @@ def scan_messages(scan: Scan) -> list[tuple[str, object, int]]:
     messages = [(LANDMARKS, _cloud(columns, t, scan.map_frame), lead)]
     if scan.pose is not None:
         messages.append((ROBOT_POSE, odometry_message(*scan.pose, t, scan.map_frame), lead))
+    if scan.odometry is not None:
+        messages.append((ODOMETRY, odometry_message(*scan.odometry, t, 'odom'), lead))
     if scan.state_covariance is not None:
         size = scan.state_covariance.shape[0]
         matrix = Float64MultiArray(data=scan.state_covariance.ravel().tolist())
