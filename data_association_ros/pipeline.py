@@ -109,21 +109,19 @@ class AssociationPipeline:
 
     def on_robot_pose(self, msg) -> None:
         """A nav_msgs/Odometry robot pose in the map frame."""
-        try:
-            pose = pose_from_odometry(msg)
-        except INPUT_ERRORS as error:
-            self._invalid('robot_pose', error)
-            return
-        self.pose_history.add(stamp_ns(msg.header), pose)
+        self._add_pose(msg, 'robot_pose', self.pose_history)
 
     def on_odometry(self, msg) -> None:
         """A nav_msgs/Odometry from wheel odometry (multi_hypothesis motion increments)."""
+        self._add_pose(msg, 'odometry', self.odometry_history)
+
+    def _add_pose(self, msg, topic: str, history: StampedBuffer) -> None:
         try:
-            odometry = pose_from_odometry(msg)
+            pose = pose_from_odometry(msg)
         except INPUT_ERRORS as error:
-            self._invalid('odometry', error)
+            self._invalid(topic, error)
             return
-        self.odometry_history.add(stamp_ns(msg.header), odometry)
+        history.add(stamp_ns(msg.header), pose)
 
     def on_state_covariance(self, msg) -> None:
         """A std_msgs/Float64MultiArray joint covariance [pose, landmarks...]."""
