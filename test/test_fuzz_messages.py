@@ -3,7 +3,7 @@
 The pipeline is the code the live node runs for every message.  After each generated message a
 valid observation message must still be answered; every rejection is counted under its cause
 (never 'internal_error'); warnings are throttled per cause.  Profiles: DA_FUZZ_PROFILE=ci
-(default, about 11,000 generated messages in this file) or long (10x; scripts/fuzz.sh).
+(default, about 12,000 generated messages in this file) or long (10x; scripts/fuzz.sh).
 """
 import math
 import re
@@ -147,3 +147,9 @@ def test_zero_and_100k_observations_and_too_many_pairs():
     s.pipeline.config['max_pairs'] = 200_000
     assert s.pipeline.answer(cloud({'x': xy[:, 0], 'y': xy[:, 1]}, 1.03)) is None
     assert s.pipeline.statistics.skipped['too_large'] == 1
+
+
+@fuzz(1000)
+@given(msg=odometries())
+def test_wheel_odometry(stream, msg):
+    stream.feed(stream.pipeline.on_odometry, msg)
