@@ -26,7 +26,7 @@ def associate(landmarks: Landmarks, observations: Observations, algorithm: str =
     Returns an Association whose assignment (K,) holds landmark ids, NEW or UNASSOCIATED.
     Raises InvalidInputError on bad input, unknown algorithm or bad parameters.
     """
-    if algorithm not in REGISTRY:
+    if not isinstance(algorithm, str) or algorithm not in REGISTRY:
         raise InvalidInputError(
             f'algorithm: unknown {algorithm!r} (valid: {", ".join(REGISTRY)})')
     associator = REGISTRY[algorithm]
