@@ -21,31 +21,41 @@ ALGORITHMS_KEY = 'data_association_ros.algorithms'
 DEFAULT_DIRECTORY = Path(__file__).resolve().parents[2] / 'bags'
 
 
+def _raw_bags() -> dict:
+    """Bags that are not association scenarios: name -> generator of (topic, msg, log time)."""
+    from .lidar_scene import lidar_messages
+    return {'lidar_two_cars': lidar_messages}
+
+
 def make_bag(name: str, directory: Path) -> Path:
-    """Write bags/<name>/ (metadata.yaml + <name>_0.mcap) from scenario `name`."""
-    scenario = SCENARIOS[name]
+    """Write bags/<name>/ (metadata.yaml + <name>_0.mcap) from scenario (or raw bag) `name`."""
     target = directory / name
     if target.exists():
         shutil.rmtree(target)
-    custom = {PARAMETERS_KEY: json.dumps(scenario.parameters, sort_keys=True),
-              ALGORITHMS_KEY: ','.join(scenario.algorithms)}
+    if name in SCENARIOS:
+        scenario = SCENARIOS[name]
+        custom = {PARAMETERS_KEY: json.dumps(scenario.parameters, sort_keys=True),
+                  ALGORITHMS_KEY: ','.join(scenario.algorithms)}
+        messages = (m for scan in scenario.generate() for m in scan_messages(scan))
+    else:
+        custom, messages = {}, _raw_bags()[name]()
     with BagWriter(target, name, custom_data=custom) as bag:
-        for scan in scenario.generate():
-            for topic, msg, log_time in scan_messages(scan):
-                bag.write(topic, msg, log_time)
+        for topic, msg, log_time in messages:
+            bag.write(topic, msg, log_time)
     return target
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog='da_make_bags', description=__doc__.splitlines()[0])
-    parser.add_argument('names', nargs='*', default=list(SCENARIOS),
-                        help=f'scenarios (default: all of {", ".join(SCENARIOS)})')
+    names = list(SCENARIOS) + list(_raw_bags())
+    parser.add_argument('names', nargs='*', default=names,
+                        help=f'bags (default: all of {", ".join(names)})')
     parser.add_argument('--out', type=Path, default=DEFAULT_DIRECTORY,
                         help='directory of the bags (default: the repository\'s bags/)')
     args = parser.parse_args(argv)
     for name in args.names:
-        if name not in SCENARIOS:
-            parser.error(f'unknown scenario {name!r} (valid: {", ".join(SCENARIOS)})')
+        if name not in names:
+            parser.error(f'unknown bag {name!r} (valid: {", ".join(names)})')
         path = make_bag(name, args.out)
         size = sum(f.stat().st_size for f in path.iterdir())
         print(f'{path}: {size / 1e6:.2f} MB')
