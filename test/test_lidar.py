@@ -70,3 +70,18 @@ def test_lidar_bag_regenerates_and_each_car_is_one_cluster(tmp_path):
             nearest.append(int(np.argmin(distance)))
             assert distance.min() < 2.5  # the visible sides' centroid is within half a car
         assert nearest[0] != nearest[1]
+
+
+def test_fictitious_measurement_recovers_a_known_rigid_motion():
+    from data_association_ros.core.lidar.object_tracker import fictitious_measurement, rotation
+    from data_association_ros.core.transforms import estimate_rigid_transform
+    body = rectangle_segments(np.zeros(2), 0.0, 4.0, 1.8).reshape(-1, 2)
+    centre, yaw, dt = np.array([3.0, -1.0]), 0.3, 0.025
+    velocity, yaw_rate = np.array([6.0, 2.0]), 0.8
+    before = body @ rotation(yaw).T + centre
+    after = body @ rotation(yaw + yaw_rate * dt).T + centre + velocity * dt
+    # the prediction (zero velocity) is the previous pose; T maps it onto the new scan
+    transform = estimate_rigid_transform(before, after)
+    z = fictitious_measurement(centre, yaw, centre, yaw, transform, dt)
+    np.testing.assert_allclose(z, [*(centre + velocity * dt), yaw + yaw_rate * dt, *velocity,
+                                   yaw_rate], atol=1e-9)
