@@ -14,10 +14,9 @@ from typing import Any, Optional
 
 import numpy as np
 
-from msg_adapters import array_to_cloud
-
 from .core import Association, InvalidInputError, Landmarks, Observations, RobotPose
 from .core.multi_hypothesis import HypothesisTree
+from .core.multi_hypothesis.motion import between
 
 HYPOTHESIS_DTYPE = np.dtype([('hypothesis', '<i4'), ('weight', '<f4'), ('x', '<f4'),
                              ('y', '<f4'), ('yaw', '<f4'), ('cov_xx', '<f4'), ('cov_xy', '<f4'),
@@ -25,14 +24,6 @@ HYPOTHESIS_DTYPE = np.dtype([('hypothesis', '<i4'), ('weight', '<f4'), ('x', '<f
 PAST_DTYPE = np.dtype([('steps_back', '<i4'), ('observation', '<i4'), ('landmark', '<i4'),
                        ('probability', '<f4')])
 MIN_VARIANCE = 1e-9
-
-
-def relative_increment(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """u with compose(a, u) = b (robot frame of a)."""
-    c, s = np.cos(a[2]), np.sin(a[2])
-    d = b[:2] - a[:2]
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1],
-                     np.arctan2(np.sin(b[2] - a[2]), np.cos(b[2] - a[2]))])
 
 
 class MultiHypothesisStage:
@@ -58,7 +49,7 @@ class MultiHypothesisStage:
             self._start(config, landmarks, prior)
             increment = np.zeros(3)
         else:
-            increment = relative_increment(self.last_odometry, odometry.mean)
+            increment = between(self.last_odometry, odometry.mean)
         self.last_odometry = odometry.mean
         tree = self.tree
         tree.prune_threshold = config['mh_prune_threshold']
@@ -130,8 +121,3 @@ class MultiHypothesisStage:
                     tree.reevaluate_exact(step)).items()):
                 rows.append((back, observation, self.landmark_ids[decision], p))
         return np.array(rows, dtype=PAST_DTYPE)
-
-
-def clouds(header, hypotheses: np.ndarray, past: np.ndarray):
-    """(pose_hypotheses, past_associations) PointCloud2 messages."""
-    return array_to_cloud(hypotheses, header), array_to_cloud(past, header)

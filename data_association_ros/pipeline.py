@@ -16,9 +16,10 @@ import numpy as np
 from std_msgs.msg import Header
 
 from msg_adapters import (PointCloudFormatError, array_to_cloud, association_markers,
-                          candidates_cloud, cloud_to_array, correspondences_cloud, detect_model, joint_covariance_from_array,
-                          landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
-                          observations_from_points, pose_from_odometry, transform_message)
+                          candidates_cloud, cloud_to_array, correspondences_cloud, detect_model,
+                          joint_covariance_from_array, landmarks_from_points,
+                          landmarks_from_pose_array, new_landmarks_cloud, observations_from_points,
+                          pose_from_odometry, transform_message)
 
 from .core import NEW, Association, InvalidInputError, Landmarks, RobotPose, associate
 from .core.candidates import CandidateManager, CandidateUpdate

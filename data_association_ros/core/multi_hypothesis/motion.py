@@ -18,6 +18,14 @@ def compose(pose: np.ndarray, increment: np.ndarray) -> np.ndarray:
     return out
 
 
+def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The increment u (3,) with compose(a, u) = b: R(yaw_a)^T (b - a) and the wrapped yaw
+    difference."""
+    c, s = np.cos(a[2]), np.sin(a[2])
+    d = np.asarray(b[:2], dtype=float) - a[:2]
+    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], wrap_angle(b[2] - a[2])])
+
+
 def compose_jacobians(pose: np.ndarray, increment: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(d compose / d pose (3, 3), d compose / d increment (3, 3)) at one pose."""
     c, s = np.cos(pose[2]), np.sin(pose[2])

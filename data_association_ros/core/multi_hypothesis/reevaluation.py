@@ -9,11 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..models import MODELS
 from .motion import compose
 from .tree import HypothesisTree
-
-POINT_ROBOT = MODELS['point_robot']
 
 
 class ParticleReevaluation:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .motion import compose
+from .motion import between, compose
 
 LANDMARKS = np.array([[5, 3], [8, 3], [4, 5], [4, 7], [3, 8], [5, 9], [6, 8], [7, 7]], float)
 POSITIONS = np.array([[0.75, 4.5], [2.75, 3.9], [4.85, 3.5], [5.15, 5.9], [6.7, 7.05],
@@ -23,14 +23,6 @@ def true_poses() -> np.ndarray:
     return np.column_stack([POSITIONS, np.append(yaw, yaw[-1])])
 
 
-def increment_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The robot-frame increment u with compose(a, u) = b."""
-    c, s = np.cos(a[2]), np.sin(a[2])
-    d = b[:2] - a[:2]
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1],
-                     np.arctan2(np.sin(b[2] - a[2]), np.cos(b[2] - a[2]))])
-
-
 def simulate(seed: int = 0) -> tuple[np.ndarray, list, list, list]:
     """(true poses, noisy increments, observations (None: nothing in range), true landmark index
     (-1: none)) of steps 1..10."""
@@ -38,7 +30,7 @@ def simulate(seed: int = 0) -> tuple[np.ndarray, list, list, list]:
     poses = true_poses()
     increments, observations, truth = [], [], []
     for k in range(1, len(poses)):
-        u = increment_between(poses[k - 1], poses[k])
+        u = between(poses[k - 1], poses[k])
         increments.append(u + rng.multivariate_normal(np.zeros(3), MOTION_NOISE,
                                                       method='cholesky'))
         distances = np.hypot(*(LANDMARKS - poses[k, :2]).T)
@@ -53,5 +45,5 @@ def simulate(seed: int = 0) -> tuple[np.ndarray, list, list, list]:
         observations.append(z + rng.multivariate_normal(np.zeros(2), MEASUREMENT_NOISE,
                                                         method='cholesky'))
         truth.append(nearest)
-    assert np.allclose(compose(poses[0], increment_between(poses[0], poses[1])), poses[1])
+    assert np.allclose(compose(poses[0], between(poses[0], poses[1])), poses[1])
     return poses, increments, observations, truth
