@@ -72,9 +72,10 @@ class AssociationNode(ParameterizedNode):
         answer = self.pipeline.answer(msg)
         if answer is None:
             return
-        self.correspondences_pub.publish(answer.correspondences)
+        # new landmarks first: a SLAM node then has them when the scan's answer arrives
         if answer.new_landmarks is not None:
             self.new_landmarks_pub.publish(answer.new_landmarks)
+        self.correspondences_pub.publish(answer.correspondences)
         if answer.candidates is not None:
             self.candidates_pub.publish(answer.candidates)
         if answer.markers is not None:

@@ -78,9 +78,10 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
                   'auto: range/bearing fields -> range_bearing; width/height -> box; x/y in the '
                   "landmarks' frame -> point_map; x/y in another frame -> point_robot",
                   choices=MEASUREMENT_MODELS),
-    *(_from_spec(_CORE[name]) for name in ('gate_probability', 'euclidean_gate',
-                                            'new_landmark_likelihood', 'iou_threshold',
-                                            'one_to_one', 'min_innovation_variance')),
+    *(_from_spec(_CORE[name]) for name in ('gate_probability', 'joint_gate_probability',
+                                            'euclidean_gate', 'new_landmark_likelihood',
+                                            'iou_threshold', 'one_to_one',
+                                            'min_innovation_variance')),
     _from_spec(_CORE['time_budget_ms'], default=100.0),
     _from_spec(_CORE['max_nodes']),
     *(_from_spec(_CORE[name]) for name in ('minimal_iterations', 'transform_ransac',

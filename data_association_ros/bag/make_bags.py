@@ -1,4 +1,5 @@
-"""da_make_bags: regenerate the simulated bags deterministically (bags/<scenario>/).
+"""da_make_bags: regenerate the bags deterministically (bags/<name>/): simulated scenarios and
+the real data sets converted from ../shared/data (bag/datasets).
 
 Messages are built from fixed seeds and serialised by rclpy; its CDR leaves alignment padding
 uninitialised, so two runs give the same messages when deserialised, not always the same bytes
@@ -11,6 +12,7 @@ import json
 import shutil
 import sys
 from pathlib import Path
+from typing import Optional
 
 from .scenarios import SCENARIOS
 from .topics import scan_messages
@@ -27,12 +29,18 @@ def _raw_bags() -> dict:
     return {'lidar_two_cars': lidar_messages}
 
 
-def make_bag(name: str, directory: Path) -> Path:
-    """Write bags/<name>/ (metadata.yaml + <name>_0.mcap) from scenario (or raw bag) `name`."""
+def make_bag(name: str, directory: Path, data: Optional[Path] = None) -> Path:
+    """Write bags/<name>/ (metadata.yaml + <name>_0.mcap) from scenario, raw bag or data set
+    (converted from `data`, the shared data directory) `name`."""
+    from .datasets import DEFAULT_DATA_DIRECTORY, SEQUENCES
     target = directory / name
     if target.exists():
         shutil.rmtree(target)
-    if name in SCENARIOS:
+    if name in SEQUENCES:
+        from .datasets.slam_bags import custom_data, sequence_messages
+        sequence = SEQUENCES[name](data or DEFAULT_DATA_DIRECTORY)
+        custom, messages = custom_data(sequence), sequence_messages(sequence)
+    elif name in SCENARIOS:
         scenario = SCENARIOS[name]
         custom = {PARAMETERS_KEY: json.dumps(scenario.parameters, sort_keys=True),
                   ALGORITHMS_KEY: ','.join(scenario.algorithms)}
@@ -47,16 +55,20 @@ def make_bag(name: str, directory: Path) -> Path:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog='da_make_bags', description=__doc__.splitlines()[0])
-    names = list(SCENARIOS) + list(_raw_bags())
+    from .datasets import DEFAULT_DATA_DIRECTORY, SEQUENCES
+    names = list(SCENARIOS) + list(_raw_bags()) + list(SEQUENCES)
     parser.add_argument('names', nargs='*', default=names,
                         help=f'bags (default: all of {", ".join(names)})')
     parser.add_argument('--out', type=Path, default=DEFAULT_DIRECTORY,
                         help='directory of the bags (default: the repository\'s bags/)')
+    parser.add_argument('--data', type=Path, default=DEFAULT_DATA_DIRECTORY,
+                        help='the shared data directory the real data sets are converted from '
+                             '(default: <repo>/../shared/data)')
     args = parser.parse_args(argv)
     for name in args.names:
         if name not in names:
             parser.error(f'unknown bag {name!r} (valid: {", ".join(names)})')
-        path = make_bag(name, args.out)
+        path = make_bag(name, args.out, args.data)
         size = sum(f.stat().st_size for f in path.iterdir())
         print(f'{path}: {size / 1e6:.2f} MB')
     return 0

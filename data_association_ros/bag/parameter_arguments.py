@@ -27,11 +27,13 @@ def parse_assignments(assignments: Iterable[str]) -> dict[str, Any]:
     return values
 
 
-def ros_arguments(values: Mapping[str, Any]) -> list[str]:
-    """['-p', 'name:=value', ...] with each value in the type the node declares."""
+def ros_arguments(values: Mapping[str, Any],
+                  declarations: Mapping[str, Any] = BY_NAME) -> list[str]:
+    """['-p', 'name:=value', ...] with each value in the type the node declares
+    (`declarations`: name -> NodeParameter; the association node's by default)."""
     arguments = []
     for name, value in values.items():
-        default = BY_NAME[name].default
+        default = declarations[name].default
         if isinstance(default, bool):
             text = 'true' if value else 'false'
         elif isinstance(default, float):

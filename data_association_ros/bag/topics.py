@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 from nav_msgs.msg import Odometry
-from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
+from std_msgs.msg import Header
 
-from msg_adapters import array_to_cloud
+from msg_adapters import array_to_cloud, covariance_message, odometry_message
 from msg_adapters.outputs import CORRESPONDENCE_DTYPE
 
 from .scenarios import Scan
@@ -18,6 +18,11 @@ STATE_COVARIANCE = '/state_covariance'
 GROUND_TRUTH = '/ground_truth/correspondences'
 CORRESPONDENCES = '/correspondences'
 NEW_LANDMARKS = '/new_landmarks'
+SENSOR_OBSERVATIONS = '/sensor_observations'
+GROUND_TRUTH_POSE = '/ground_truth/pose'
+GROUND_TRUTH_LANDMARKS = '/ground_truth/landmarks'
+SLAM_MAP = '/slam_map'
+SLAM_POSE = '/slam_pose'
 INPUT_TOPICS = (LANDMARKS, ROBOT_POSE, ODOMETRY, STATE_COVARIANCE, OBSERVATIONS)
 OUTPUT_TOPICS = (CORRESPONDENCES, NEW_LANDMARKS)
 INPUT_LEAD_NS = 10_000_000
@@ -39,17 +44,10 @@ def _cloud(columns: dict[str, np.ndarray], stamp: int, frame: str, integer=('id'
     return array_to_cloud(points, header(stamp, frame))
 
 
-def odometry_message(mean: np.ndarray, covariance: np.ndarray, time_ns: int,
-                     frame: str = 'map') -> Odometry:
-    """nav_msgs/Odometry with pose (x, y, yaw) and the 3x3 covariance in its 6x6 slots."""
-    msg = Odometry(header=header(time_ns, frame), child_frame_id='base_link')
-    msg.pose.pose.position.x, msg.pose.pose.position.y = float(mean[0]), float(mean[1])
-    msg.pose.pose.orientation.z = float(np.sin(mean[2] / 2))
-    msg.pose.pose.orientation.w = float(np.cos(mean[2] / 2))
-    full = np.zeros((6, 6))
-    full[np.ix_([0, 1, 5], [0, 1, 5])] = covariance
-    msg.pose.covariance = full.ravel().tolist()
-    return msg
+def odometry_at(mean: np.ndarray, covariance: np.ndarray, time_ns: int,
+                frame: str = 'map') -> Odometry:
+    """nav_msgs/Odometry stamped `time_ns` in `frame` with pose (x, y, yaw) and its covariance."""
+    return odometry_message(header(time_ns, frame), mean, covariance)
 
 
 def scan_messages(scan: Scan) -> list[tuple[str, object, int]]:
@@ -66,15 +64,11 @@ def scan_messages(scan: Scan) -> list[tuple[str, object, int]]:
         columns['cov_yy'] = scan.landmark_covariances[:, 1, 1]
     messages = [(LANDMARKS, _cloud(columns, t, scan.map_frame), lead)]
     if scan.pose is not None:
-        messages.append((ROBOT_POSE, odometry_message(*scan.pose, t, scan.map_frame), lead))
+        messages.append((ROBOT_POSE, odometry_at(*scan.pose, t, scan.map_frame), lead))
     if scan.odometry is not None:
-        messages.append((ODOMETRY, odometry_message(*scan.odometry, t, 'odom'), lead))
+        messages.append((ODOMETRY, odometry_at(*scan.odometry, t, 'odom'), lead))
     if scan.state_covariance is not None:
-        size = scan.state_covariance.shape[0]
-        matrix = Float64MultiArray(data=scan.state_covariance.ravel().tolist())
-        matrix.layout.dim = [MultiArrayDimension(label='rows', size=size, stride=size * size),
-                             MultiArrayDimension(label='cols', size=size, stride=size)]
-        messages.append((STATE_COVARIANCE, matrix, lead))
+        messages.append((STATE_COVARIANCE, covariance_message(scan.state_covariance), lead))
     messages.append((OBSERVATIONS, _cloud(scan.observations, t, scan.observation_frame), t))
     truth = np.zeros(len(scan.truth), dtype=CORRESPONDENCE_DTYPE)
     truth['observation'] = np.arange(len(scan.truth))

@@ -52,8 +52,13 @@ class ParameterSpec:
 
 
 GATE_PROBABILITY = ParameterSpec(
-    'gate_probability', 0.99, 'probability mass of the chi-square individual (and joint) gate',
+    'gate_probability', 0.99, 'probability mass of the chi-square individual gate (and of the '
+    'joint test unless joint_gate_probability is set)',
     low=0.0, high=1.0, low_open=True, high_open=True)
+JOINT_GATE_PROBABILITY = ParameterSpec(
+    'joint_gate_probability', 0.0, 'jcbb: probability mass of the chi-square joint test of a set '
+    'of pairs, 1 - its significance level (0: the same as gate_probability)',
+    low=0.0, high=1.0, high_open=True)
 MIN_INNOVATION_VARIANCE = ParameterSpec(
     'min_innovation_variance', 1e-9,
     'floor on each diagonal entry of S = H P H^T + R (measurement units squared)', low=0.0)

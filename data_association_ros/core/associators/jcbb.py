@@ -3,6 +3,12 @@
 The most pairs that are jointly compatible, ties by the smallest joint NIS; exact incremental
 joint NIS and exact pruning (see joint_compatibility).  Unpaired observations are NEW when
 outside every individual gate, else UNASSOCIATED.
+
+Pairs are individually compatible at `gate_probability`; a set of l pairs is jointly compatible
+when its joint NIS is within chi2(m l, `joint_gate_probability`) (0: `gate_probability`), so the
+two significance levels can differ as in the TTK4250 course's JCBB (individual alpha =
+1 - gate_probability, joint alpha = 1 - joint_gate_probability).  `classic_pruning=True,
+nis_tie_break=False` is Neira & Tardos' original search.
 """
 from __future__ import annotations
 
@@ -11,13 +17,18 @@ import time
 import numpy as np
 
 from ..gating import chi2_threshold
-from ..parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, ParameterSpec
+from ..parameters import (GATE_PROBABILITY, JOINT_GATE_PROBABILITY, MIN_INNOVATION_VARIANCE,
+                          ParameterSpec)
 from .base import NO_LANDMARK, Associator, result
 from .joint_compatibility import MAX_NODES, TIME_BUDGET_MS, JointCompatibilitySearch
 
 CLASSIC_PRUNING = ParameterSpec(
     'classic_pruning', False, 'also prune every node failing its own joint test (faster, may '
     'miss the largest valid set)', kind=bool)
+NIS_TIE_BREAK = ParameterSpec(
+    'nis_tie_break', True, 'among the sets with the most pairs take the smallest joint NIS '
+    '(false: the first found, cutting every branch that cannot give more pairs, as Neira & '
+    'Tardos 2001 and the TTK4250 course; faster)', kind=bool)
 
 
 def individually_compatible(problem, gate_probability: float):
@@ -48,20 +59,22 @@ def search_result(problem, name: str, search: JointCompatibilitySearch, gated, s
                   elapsed_ms=(time.perf_counter() - started) * 1000.0, **extras)
 
 
-def run(problem, gate_probability: float, min_innovation_variance: float, time_budget_ms: float,
-        max_nodes: int, classic_pruning: bool):
+def run(problem, gate_probability: float, joint_gate_probability: float,
+        min_innovation_variance: float, time_budget_ms: float, max_nodes: int,
+        classic_pruning: bool, nis_tie_break: bool):
     """JCBB over the individually compatible pairs; see the module docstring."""
     started = time.perf_counter()
     gated, candidates, order = individually_compatible(problem, gate_probability)
-    search = JointCompatibilitySearch(problem, gate_probability, candidates, order,
+    joint = joint_gate_probability if joint_gate_probability > 0.0 else gate_probability
+    search = JointCompatibilitySearch(problem, joint, candidates, order,
                                       deadline_of(started, time_budget_ms), max_nodes,
-                                      classic_pruning)
+                                      classic_pruning, nis_tie_break)
     search.run()
     return search_result(problem, 'jcbb', search, gated, started)
 
 
 ASSOCIATOR = Associator(
     name='jcbb', run=run,
-    parameters=(GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, TIME_BUDGET_MS, MAX_NODES,
-                CLASSIC_PRUNING),
+    parameters=(GATE_PROBABILITY, JOINT_GATE_PROBABILITY, MIN_INNOVATION_VARIANCE,
+                TIME_BUDGET_MS, MAX_NODES, CLASSIC_PRUNING, NIS_TIE_BREAK),
     summary='joint compatibility branch and bound: the largest jointly consistent set of pairs')

@@ -10,6 +10,11 @@ Pruning is exact: a branch is cut when its d2 exceeds the threshold of the large
 still reachable in it (d2 never decreases as pairs are added, but the threshold grows with the
 dimension, so cutting at every node failing its own test can miss a larger valid set), or when
 it cannot reach more pairs than the best so far (or as many with a smaller d2).
+
+With nis_ties=False the search is Neira & Tardos' original one (as in the TTK4250 course's
+JCBB): a set replaces the best only with more pairs, so a branch is cut as soon as it
+cannot reach more pairs than the best so far; the answer is the first set with the most pairs
+in the search order, which can have a larger d2 than another set of that size.
 """
 from __future__ import annotations
 
@@ -63,7 +68,7 @@ class JointCompatibilitySearch:
 
     def __init__(self, problem, gate_probability: float, candidates: list[np.ndarray],
                  order: list[int], deadline: Optional[float], max_nodes: int,
-                 classic: bool = False) -> None:
+                 classic: bool = False, nis_ties: bool = True) -> None:
         m = problem.observations.dim
         self.m = m
         self.nu = problem.innovations
@@ -99,6 +104,7 @@ class JointCompatibilitySearch:
         self.deadline = deadline
         self.max_nodes = max_nodes
         self.classic = classic
+        self.nis_ties = nis_ties
         self.truncated = False
 
     def start_from(self, pairs: list[tuple[int, int]]) -> float:
@@ -176,7 +182,7 @@ class JointCompatibilitySearch:
         l = len(self.pairs)
         upper = l + (self._reachable(position) if position < len(self.order) else 0)
         best = len(self.best_pairs)
-        if upper < best or (upper == best and nis >= self.best_nis):
+        if upper < best or (upper == best and (nis >= self.best_nis or not self.nis_ties)):
             return
         if nis > self.thresholds[upper] or position == len(self.order):
             return
@@ -192,7 +198,8 @@ class JointCompatibilitySearch:
                 continue
             passes = new_nis <= self.thresholds[l + 1]
             if passes and (l + 1 > len(self.best_pairs) or (
-                    l + 1 == len(self.best_pairs) and new_nis < self.best_nis)):
+                    self.nis_ties and l + 1 == len(self.best_pairs)
+                    and new_nis < self.best_nis)):
                 self.best_pairs = self.pairs + [(i, int(j))]
                 self.best_nis = new_nis
             if passes or not self.classic:

@@ -1,0 +1,88 @@
+"""DLR Spatial Cognition data set (MATLAB conversion from GitHub sunzuolei/jcbb) as a
+`SlamSequence`.
+
+Source: `dlr_spatial_cognition/landmark.mat` (per step `z` 2 x m [m], `R` 2 x 2 x m [m^2],
+`ID` m), `relMotion.mat` (per step `x` (dx, dy, dyaw) [m, m, rad], `P` 3 x 3) and `truth.mat`
+(`x` 3 x 3298 poses, heading unwrapped); see that folder's SOURCES.md.
+
+Alignment: step k (0-based, 3297 steps) = increment relMotion(k) then scan landmark(k), taken at
+truth.x(:, k+1) (0-based column k+1, i.e. after the motion).  Determined empirically: projecting
+every observation into the world with the truth pose after relMotion(k), the observations of
+one ID lie 0.088 m RMS (median 0.042 m) from their ID's mean; with the pose before the motion,
+0.247 m RMS (median 0.162 m).  relMotion(k) also matches the truth increment from column k to
+k+1 (errors std 3 mm, 3 mm, 0.47 deg; dy is biased by -4.8 mm per step).  initial_pose = truth.x(:, 1) (zero), zero covariance.
+true_pose = truth.x(:, k+1) with the heading wrapped to (-pi, pi].  truth.P is not used; whether
+`truth` is an external measurement or a smoothed estimate is not stated by the source.
+
+Values: z in the robot frame (x, y) [m], model 'point_robot' (z = R(-yaw) (l - p)), covariances
+the file's R per observation; increment covariance the file's P.  Nothing is subsampled; the
+118 steps without observations are kept (they carry motion).  14237 observations.
+
+Truth: ID is the landmark id.  ID 23001 (21 observations at steps 2213-2216 and 2528-2546) is
+outside the numbering of the other 559 IDs (1..589) and its meaning is not documented; its
+observations project to one point (within 0.14 m, 0.78 m from the nearest other ID), so it is
+kept as landmark 23001 (not CLUTTER) but with truth_certain False, left out of the scores.
+All other observations are certain.  There is no landmark map: true_landmarks is None.
+Note: a few labels look wrong: 15 observations of IDs 22, 179, 191 and 331 project more than
+1 m from their ID's median position (e.g. ID 179 at steps 3015-3017, 2.6 m from its other 23
+observations); the labels are kept as they are.
+
+Times: the data has none; step k is stamped 1 s + k * 0.1 s.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+from .sequence import SlamSequence, SlamStep
+
+FOLDER = 'dlr_spatial_cognition'
+UNCERTAIN_ID = 23001
+START_NS = 1_000_000_000
+PERIOD_NS = 100_000_000
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    """Angle(s) wrapped to (-pi, pi] [rad]."""
+    wrapped = np.remainder(angle + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(wrapped == -np.pi, np.pi, wrapped)
+
+
+def _load(path: Path, name: str):
+    return scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)[name]
+
+
+def load(data_directory: Path) -> SlamSequence:
+    """The DLR data set in `data_directory` (the dlr_spatial_cognition folder): 3297 steps,
+    'point_robot'."""
+    data_directory = Path(data_directory)
+    landmarks = _load(data_directory / 'landmark.mat', 'landmark')
+    motions = _load(data_directory / 'relMotion.mat', 'relMotion')
+    truth = _load(data_directory / 'truth.mat', 'truth')
+    poses = np.asarray(truth.x, dtype=float).T                        # (3298, 3)
+    if not len(landmarks) == len(motions) == len(poses) - 1:
+        raise ValueError('landmark, relMotion and truth.x lengths do not line up')
+    steps = []
+    for k, (scan, motion) in enumerate(zip(landmarks, motions)):
+        count = np.size(scan.ID)
+        ids = np.atleast_1d(np.asarray(scan.ID)).astype(np.int64)
+        true_pose = poses[k + 1].copy()
+        true_pose[2] = _wrap(true_pose[2])
+        steps.append(SlamStep(
+            time_ns=START_NS + k * PERIOD_NS,
+            increment=np.asarray(motion.x, dtype=float).reshape(3).copy(),
+            increment_covariance=np.asarray(motion.P, dtype=float).reshape(3, 3).copy(),
+            values=np.asarray(scan.z, dtype=float).reshape(2, count).T.copy(),
+            covariances=np.asarray(scan.R, dtype=float).reshape(2, 2, count)
+            .transpose(2, 0, 1).copy(),
+            truth=ids, truth_certain=ids != UNCERTAIN_ID, true_pose=true_pose))
+    initial_pose = poses[0].copy()
+    initial_pose[2] = _wrap(initial_pose[2])
+    return SlamSequence(
+        name='dlr_spatial_cognition',
+        description='DLR Spatial Cognition: 3297 steps of odometry and Cartesian robot-frame '
+                    'observations of white circles; truth = the data set IDs (23001 uncertain).',
+        model='point_robot', initial_pose=initial_pose, initial_covariance=np.zeros((3, 3)),
+        steps=steps, true_landmarks=None, parameters={})

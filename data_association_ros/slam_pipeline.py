@@ -1,0 +1,367 @@
+"""The ekf_slam_node's work without rclpy: an EKF-SLAM that feeds an association node and lives
+with its answers (or with the bag's ground truth).
+
+Per scan (`sensor_observations`, PointCloud2 in the robot frame: range, bearing [+ var_range,
+var_bearing] or x, y [+ cov_xx, cov_xy, cov_yy]):
+1. wait until odometry at least as new as the scan has arrived (or `max_pending_scans` scans
+   wait), compose the odometry increments up to the scan and predict;
+2. publish `landmarks`, `robot_pose` and `state_covariance` stamped with the scan's stamp, then
+   forward the scan on `observations` (so the association node has the map before the scan);
+3. on the scan's answer - `correspondences` (association_source `node`) or
+   `ground_truth/correspondences` (`ground_truth`) - fuse the paired observations in one EKF
+   update; then initialise landmarks: from `new_landmarks` (`node`: one landmark per candidate,
+   from its confirming observation of this scan, at the updated pose) or from the truth ids not
+   yet in the map (`ground_truth`, which keeps the true ids); publish `slam_pose` and `slam_map`.
+Answers and new_landmarks may arrive in either order; ones for other scans are counted and
+dropped (a landmark whose scan has passed is initialised from its fused map-frame estimate,
+uncorrelated with the state, and counted as `late_new_landmarks`).
+"""
+from __future__ import annotations
+
+import time
+from collections import Counter, deque
+from dataclasses import dataclass, field
+from typing import Any, Callable, Optional
+
+import numpy as np
+from std_msgs.msg import Header
+
+from msg_adapters import (PointCloudFormatError, cloud_to_array, covariance_message,
+                          detect_model, observations_from_points, odometry_message,
+                          point_map_cloud, pose_from_odometry)
+
+from .core import InvalidInputError, Observations
+from .core.parameters import ParameterSpec
+from .core.slam import EkfSlam, OdometryIncrements
+from .node_parameters import BY_NAME, NodeParameter
+from .pipeline import NS_PER_S, stamp_ns
+
+INPUT_ERRORS = (InvalidInputError, PointCloudFormatError, ValueError)
+MAP_FRAME = 'map'
+ORIGIN_FIELDS = ('origin_stamp_sec', 'origin_stamp_nanosec', 'origin_observation')
+SLAM_PARAMETERS = (
+    NodeParameter('association_source', 'node', 'node: fuse the association node\'s answers '
+                  '(closed loop); ground_truth: fuse the bag\'s true association (oracle)',
+                  choices=('node', 'ground_truth')),
+    NodeParameter('measurement_model', 'auto', 'model of sensor_observations (auto: range/'
+                  'bearing fields -> range_bearing, x/y -> point_robot)',
+                  choices=('auto', 'range_bearing', 'point_robot'), read_only=True),
+    BY_NAME['observation_noise'],
+    NodeParameter('initial_x', 0.0, 'initial robot x in the map frame [m]',
+                  spec=ParameterSpec('initial_x', 0.0, ''), read_only=True),
+    NodeParameter('initial_y', 0.0, 'initial robot y in the map frame [m]',
+                  spec=ParameterSpec('initial_y', 0.0, ''), read_only=True),
+    NodeParameter('initial_yaw', 0.0, 'initial robot yaw in the map frame [rad]',
+                  spec=ParameterSpec('initial_yaw', 0.0, ''), read_only=True),
+    NodeParameter('initial_position_std', 0.0, 'standard deviation of the initial x and y [m]',
+                  spec=ParameterSpec('initial_position_std', 0.0, '', low=0.0), read_only=True),
+    NodeParameter('initial_yaw_std', 0.0, 'standard deviation of the initial yaw [rad]',
+                  spec=ParameterSpec('initial_yaw_std', 0.0, '', low=0.0), read_only=True),
+    NodeParameter('odometry_tolerance', 0.005, 'odometry up to this much newer than a scan '
+                  'counts as taken at the scan [s]',
+                  spec=ParameterSpec('odometry_tolerance', 0.005, '', low=0.0, high=10.0)),
+    NodeParameter('max_pending_scans', 10, 'scans waiting for odometry beyond this many are '
+                  'processed with the odometry there is',
+                  spec=ParameterSpec('max_pending_scans', 10, '', kind=int, low=0, high=1000)),
+    NodeParameter('min_motion_variance', 1e-9, 'added to the diagonal of every odometry '
+                  'increment covariance [m^2, rad^2]',
+                  spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
+)
+SLAM_BY_NAME = {p.name: p for p in SLAM_PARAMETERS}
+
+
+@dataclass
+class CurrentScan:
+    """The scan being answered: its stamp, observations and whether its update ran."""
+
+    stamp: int
+    header: Any
+    observations: Observations
+    updated: bool = False
+
+
+@dataclass
+class SlamStatistics:
+    """Counters of the SLAM node (reported on /diagnostics)."""
+
+    scans: int = 0
+    updates: int = 0
+    fused_observations: int = 0
+    landmarks_added: int = 0
+    invalid: Counter = field(default_factory=Counter)
+    dropped: Counter = field(default_factory=Counter)
+
+    def key_values(self) -> dict[str, object]:
+        return {'scans': self.scans, 'updates': self.updates,
+                'fused_observations': self.fused_observations,
+                'landmarks_added': self.landmarks_added,
+                **{f'invalid_{k}': v for k, v in sorted(self.invalid.items())},
+                **{f'dropped_{k}': v for k, v in sorted(self.dropped.items())}}
+
+
+Outputs = list[tuple[str, Any]]
+"""(relative topic, message) to publish, in order."""
+
+
+class SlamPipeline:
+    """Holds the filter and the scan in flight; each handler returns the messages to publish."""
+
+    def __init__(self, config: dict[str, Any],
+                 warn: Callable[[str], None] = lambda text: None) -> None:
+        self.config = config
+        self.warn = warn
+        self.statistics = SlamStatistics()
+        self.slam: Optional[EkfSlam] = None
+        self.odometry = OdometryIncrements()
+        self.odometry_queue: deque = deque()      # (stamp, RobotPose) not yet consumed
+        self.latest_odometry_stamp: Optional[int] = None
+        self.pending_scans: deque = deque()
+        self.current: Optional[CurrentScan] = None
+        self.early_answers: dict[int, Any] = {}   # answers of a scan not processed yet
+        self.early_new: dict[int, Any] = {}       # new_landmarks waiting for their scan's update
+        self.origins: dict[int, tuple[int, int]] = {}   # landmark id -> (stamp, observation)
+        self.next_id = 0
+        self._last_warning: dict[str, float] = {}
+
+    # -- inputs -------------------------------------------------------------------------
+    def on_odometry(self, msg) -> Outputs:
+        """nav_msgs/Odometry: pose in the odometry frame, covariance of the increment since the
+        previous message."""
+        try:
+            pose = pose_from_odometry(msg)
+            if not (np.all(np.isfinite(pose.mean)) and np.all(np.isfinite(pose.covariance))):
+                raise InvalidInputError('odometry: pose or covariance not finite')
+        except INPUT_ERRORS as error:
+            return self._invalid('odometry', error)
+        stamp = stamp_ns(msg.header)
+        if self.latest_odometry_stamp is not None and stamp <= self.latest_odometry_stamp:
+            return self._drop('odometry_out_of_order', 'odometry older than the last one')
+        self.latest_odometry_stamp = stamp
+        self.odometry_queue.append((stamp, pose))
+        return self._release_scans()
+
+    def on_scan(self, msg) -> Outputs:
+        """A sensor_observations PointCloud2; processed once its odometry is there."""
+        self.pending_scans.append(msg)
+        return self._release_scans()
+
+    def on_correspondences(self, msg) -> Outputs:
+        """The association node's answer (used when association_source is `node`)."""
+        return self._on_answer(msg, 'node')
+
+    def on_ground_truth(self, msg) -> Outputs:
+        """The bag's true association (used when association_source is `ground_truth`)."""
+        return self._on_answer(msg, 'ground_truth')
+
+    def on_new_landmarks(self, msg) -> Outputs:
+        """The association node's new landmarks (association_source `node`)."""
+        if self.config['association_source'] != 'node':
+            return []
+        stamp = stamp_ns(msg.header)
+        current = self.current
+        if current is not None and stamp == current.stamp and current.updated:
+            return self._add_new_landmarks(msg) + self._estimate_messages()
+        if current is None or stamp >= current.stamp:
+            self.early_new[stamp] = msg
+            return []
+        return self._add_new_landmarks(msg, late=True) + self._estimate_messages()
+
+    # -- work ---------------------------------------------------------------------------
+    def _release_scans(self) -> Outputs:
+        out: Outputs = []
+        tolerance = int(self.config['odometry_tolerance'] * NS_PER_S)
+        while self.pending_scans:
+            stamp = stamp_ns(self.pending_scans[0].header)
+            ready = self.latest_odometry_stamp is not None and \
+                self.latest_odometry_stamp >= stamp - tolerance
+            if not ready and len(self.pending_scans) <= self.config['max_pending_scans']:
+                break
+            if not ready:
+                self._drop('scan_without_odometry', 'scan processed without odometry up to '
+                           'its stamp')
+            out += self._process_scan(self.pending_scans.popleft(), stamp + tolerance)
+        return out
+
+    def _process_scan(self, msg, odometry_until: int) -> Outputs:
+        try:
+            points = cloud_to_array(msg)
+            model = self.config['measurement_model']
+            if model == 'auto':
+                model = detect_model(points.dtype.names or (), msg.header.frame_id, MAP_FRAME)
+            if model not in ('range_bearing', 'point_robot'):
+                raise InvalidInputError(f'sensor_observations: model {model} is not a robot-'
+                                        'frame point model (range_bearing, point_robot)')
+            observations = observations_from_points(points, model,
+                                                    self.config['observation_noise'])
+            if self.slam is not None and self.slam.model.name != model:
+                raise InvalidInputError(f'sensor_observations: model {model} after '
+                                        f'{self.slam.model.name}')
+        except INPUT_ERRORS as error:
+            return self._invalid('sensor_observations', error)
+        while self.odometry_queue and self.odometry_queue[0][0] <= odometry_until:
+            _, pose = self.odometry_queue.popleft()
+            self.odometry.add(pose.mean, pose.covariance)
+        if self.slam is None:
+            self.slam = self._start(model)
+        increment, noise = self.odometry.take()
+        self.slam.predict(increment, noise + np.eye(3) * self.config['min_motion_variance'])
+        stamp = stamp_ns(msg.header)
+        self.current = CurrentScan(stamp, msg.header, observations)
+        self.statistics.scans += 1
+        for old in [s for s in self.early_answers if s < stamp]:
+            del self.early_answers[old]
+            self.statistics.dropped['answer_without_scan'] += 1
+        header = Header(stamp=msg.header.stamp, frame_id=MAP_FRAME)
+        landmarks = self.slam.landmarks()
+        out: Outputs = [
+            ('landmarks', point_map_cloud(header, landmarks.ids, landmarks.means,
+                                          landmarks.covariances)),
+            ('robot_pose', odometry_message(header, *self._pose())),
+            ('state_covariance', covariance_message(self.slam.covariance)),
+            ('observations', msg)]
+        answer = self.early_answers.pop(stamp, None)
+        if answer is not None:
+            out += self._apply_answer(answer)
+        return out
+
+    def _start(self, model: str) -> EkfSlam:
+        c = self.config
+        covariance = np.diag([c['initial_position_std'] ** 2] * 2 + [c['initial_yaw_std'] ** 2])
+        return EkfSlam([c['initial_x'], c['initial_y'], c['initial_yaw']], covariance, model)
+
+    def _pose(self):
+        pose = self.slam.pose
+        return pose.mean, pose.covariance
+
+    def _on_answer(self, msg, source: str) -> Outputs:
+        if self.config['association_source'] != source:
+            return []
+        stamp = stamp_ns(msg.header)
+        current = self.current
+        if current is not None and stamp == current.stamp and not current.updated:
+            return self._apply_answer(msg)
+        if current is None or stamp > current.stamp:
+            self.early_answers[stamp] = msg
+            return []
+        return self._drop('stale_answer', 'answer for a scan already done')
+
+    def _apply_answer(self, msg) -> Outputs:
+        current = self.current
+        try:
+            assignment = cloud_to_array(msg)['landmark'].astype(np.int64)
+            if len(assignment) != len(current.observations):
+                raise InvalidInputError(f'{len(assignment)} answers for '
+                                        f'{len(current.observations)} observations')
+        except (*INPUT_ERRORS, KeyError) as error:
+            return self._invalid('correspondences', error)
+        slam = self.slam
+        known = (assignment >= 0) & (slam.index_of(assignment) >= 0)
+        unknown = int(((assignment >= 0) & ~known).sum())
+        truth_mode = self.config['association_source'] == 'ground_truth'
+        if unknown and not truth_mode:
+            self.statistics.dropped['unknown_landmark_id'] += unknown
+        _, first = np.unique(assignment, return_index=True)
+        once = np.zeros(len(assignment), dtype=bool)
+        once[first] = True          # a landmark paired twice in one scan: fuse the first only
+        use = np.flatnonzero(known & once)
+        values, covariances = current.observations.values, current.observations.covariances
+        try:
+            slam.update(values[use], covariances[use], assignment[use])
+        except (np.linalg.LinAlgError, InvalidInputError) as error:
+            return self._invalid('update', error)
+        self.statistics.updates += 1
+        self.statistics.fused_observations += len(use)
+        current.updated = True
+        if truth_mode:
+            new = np.flatnonzero((assignment >= 0) & ~known & once)
+            self._add(values[new], covariances[new], assignment[new], new)
+        elif current.stamp in self.early_new:
+            self._add_new_landmarks(self.early_new.pop(current.stamp))
+        for old in [s for s in self.early_new if s < current.stamp]:
+            del self.early_new[old]
+            self.statistics.dropped['new_landmarks_without_scan'] += 1
+        return self._estimate_messages()
+
+    def _add(self, values, covariances, ids, observations) -> None:
+        self.slam.add_landmarks(values, covariances, ids)
+        for landmark, index in zip(ids.tolist(), observations.tolist()):
+            self.origins[landmark] = (self.current.stamp, index)
+        self.statistics.landmarks_added += len(ids)
+        if len(ids):
+            self.next_id = max(self.next_id, int(ids.max()) + 1)
+
+    def _add_new_landmarks(self, msg, late: bool = False) -> Outputs:
+        """One landmark per candidate of a new_landmarks message, from its observation in the
+        current scan (at the updated pose), else from its fused map-frame estimate."""
+        try:
+            points = cloud_to_array(msg)
+            stamps = points['stamp_sec'].astype(np.int64) * NS_PER_S + points['stamp_nanosec']
+            candidates = points['candidate']
+        except (*INPUT_ERRORS, KeyError) as error:
+            return self._invalid('new_landmarks', error)
+        current = self.current
+        chosen = []
+        for candidate in np.unique(candidates):
+            rows = np.flatnonzero((candidates == candidate) & (stamps == current.stamp))
+            rows = rows[(points['observation'][rows] >= 0) &
+                        (points['observation'][rows] < len(current.observations))]
+            if rows.size and not late:
+                chosen.append(int(points['observation'][rows[-1]]))
+            else:
+                self._add_fused(points[np.flatnonzero(candidates == candidate)[-1]])
+        chosen = np.unique(np.array(chosen, dtype=np.int64))
+        if chosen.size:
+            ids = self.next_id + np.arange(chosen.size)
+            values = current.observations.values[chosen]
+            covariances = current.observations.covariances[chosen]
+            self._add(values, covariances, ids, chosen)
+        return []
+
+    def _add_fused(self, point) -> None:
+        """A landmark from a map-frame estimate (x, y, covariance), uncorrelated with the state."""
+        self.statistics.dropped['late_new_landmarks'] += 1
+        slam = self.slam
+        mean = np.array([point['x'], point['y']], dtype=float)
+        cov = np.array([[point['cov_xx'], point['cov_xy']], [point['cov_xy'], point['cov_yy']]],
+                       dtype=float)
+        if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+            return
+        size = len(slam.mean)
+        grown = np.zeros((size + 2, size + 2))
+        grown[:size, :size] = slam.covariance
+        grown[size:, size:] = cov
+        slam.covariance = grown
+        slam.mean = np.concatenate([slam.mean, mean])
+        slam.ids = np.append(slam.ids, self.next_id)
+        self.origins[self.next_id] = (-1, -1)
+        self.next_id += 1
+
+    def _estimate_messages(self) -> Outputs:
+        header = Header(stamp=self.current.header.stamp, frame_id=MAP_FRAME)
+        landmarks = self.slam.landmarks()
+        origins = np.array([self.origins.get(int(i), (-1, -1)) for i in landmarks.ids],
+                           dtype=np.int64).reshape(-1, 2)
+        sec, nanosec = np.divmod(np.maximum(origins[:, 0], 0), NS_PER_S)
+        extra = {'origin_stamp_sec': sec.astype('<i4'),
+                 'origin_stamp_nanosec': nanosec.astype('<u4'),
+                 'origin_observation': origins[:, 1].astype('<i4')}
+        return [('slam_map', point_map_cloud(header, landmarks.ids, landmarks.means,
+                                             landmarks.covariances, extra)),
+                ('slam_pose', odometry_message(header, *self._pose()))]
+
+    # -- bookkeeping --------------------------------------------------------------------
+    def _invalid(self, what: str, error: Exception) -> Outputs:
+        self.statistics.invalid[what] += 1
+        self._warn(what, f'{what} message rejected: {error}')
+        return []
+
+    def _drop(self, cause: str, text: str) -> Outputs:
+        self.statistics.dropped[cause] += 1
+        self._warn(cause, text)
+        return []
+
+    def _warn(self, cause: str, text: str) -> None:
+        now = time.monotonic()
+        if now - self._last_warning.get(cause, -1e9) >= 5.0:
+            self._last_warning[cause] = now
+            self.warn(f'{text} (further {cause!r} warnings throttled)')
