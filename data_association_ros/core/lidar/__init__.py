@@ -1,6 +1,10 @@
-"""2-D LiDAR building blocks for seed 003's object tracker (no ROS): ray casting against line
-segments (for simulated scans) and clustering of consecutive scan points."""
-from .clustering import cluster_consecutive
+"""2-D LiDAR object tracking for seed 003 (no ROS): ray casting (simulated scans), clustering,
+the rectangle boundary model, fine association, rigid correction, fictitious measurement and
+the tracker."""
+from .clustering import cluster_consecutive, cluster_ends
+from .object_tracker import LidarObjectTracker, ObjectTrack
+from .parameters import PARAMETERS, TrackerConfig
 from .raycast import rectangle_segments, raycast
 
-__all__ = ['cluster_consecutive', 'raycast', 'rectangle_segments']
+__all__ = ['LidarObjectTracker', 'ObjectTrack', 'PARAMETERS', 'TrackerConfig',
+           'cluster_consecutive', 'cluster_ends', 'raycast', 'rectangle_segments']

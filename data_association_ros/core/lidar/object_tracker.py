@@ -1,18 +1,35 @@
-"""Seed 003's LiDAR object tracker: clusters -> coarse association -> fine point matching ->
-rigid transform -> fictitious measurement -> Kalman update.
+"""Seed 003's LiDAR multi-object tracker: clusters -> coarse association -> fine point matching
+(JCBB) -> rigid correction -> fictitious measurement -> Kalman update.
 
-Track state x = [x, y, yaw, vx, vy, yaw_rate] (constant velocity and turn rate over dt), with
-boundary points kept in the object's frame, centred on their bounding box (so x, y converge to
-the object's centre as more of its outline is seen).  Each scan: cluster consecutive points;
-predict every track; associate cluster centroids with predicted track positions (`coarse`, a
-registry associator on point_map: S = P_xy + centroid noise); for each pair, match (at most
-`max_match_points` of) the cluster's points to the track's predicted boundary points (`fine`:
-`jcbb_points`, or `nearest`, the seed's rejected nearest pairing with a distance cut-off),
-estimate the rigid SE(2) transform T mapping the predicted boundary onto the scan (Kabsch), and
-form the fictitious measurement z = [T(centre), yaw + theta_T, (T(centre) - previous centre) / dt,
-(yaw + theta_T - previous yaw) / dt] with diagonal R (velocity terms larger); update; the scan
-points join the boundary.  Unassociated clusters start tracks (centroid, yaw 0, velocity 0);
-tracks unassociated for more than `max_age` scans are dropped.
+Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
+1. cluster consecutive points (clustering.cluster_consecutive) and flag each cluster end that is
+   an object edge or occluded (clustering.cluster_ends);
+2. predict every track to t (measurement.transition, process_noise);
+3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
+   centroid in the object frame, moved with the predicted pose; covariance A P A^T +
+   coarse_sigma^2 I) by the registry associator `coarse`; a cluster left over whose centroid lies
+   in a track's predicted rectangle (grown by cluster_gap) joins that track (an object split by
+   an occluder is one object);
+4. fine: match (at most max_match_points of) the track's scan points with the predicted boundary
+   points (fine.match: jcbb_points with the boundary's joint covariance, Cartesian or polar jNIS,
+   or nearest); fewer than min_pairs pairs: no correction;
+5. correct: estimate the rigid correction from the pairs (alignment: point_to_line, kabsch,
+   ransac); form the fictitious measurement over the time since the track's last update and its
+   noise (measurement); Kalman update with [x, y, yaw] (or, velocity_measurement, all six terms
+   as the seed), unless it fails the filter's chi-square gate;
+6. the heading follows the velocity (yaw + pi when they disagree above 1 m/s); the rectangle grows
+   or moves to contain the matched points (shape.contain);
+7. a cluster no track took, or taken by a coasting track that it could not correct, starts a
+   track if it has min_pairs points (shape.fit_rectangle; velocity 0, uncertain); a track not
+   updated at t whose centre lies in the rectangle of one that was is dropped (the same object
+   found again), as is a track not updated for more than max_age seconds.
+
+Added to the seed (why: README "LiDAR object tracking"): the boundary is a rectangle model with
+an estimated extent (completed by prior_length / prior_width on the hidden side) sampled on its
+visible faces, instead of accumulated scan points whose bounding box drifts and is not the
+object's centre when only part of it was seen; the point_to_line correction; the correction's
+covariance in R; the velocity left to the filter by default.  The LiDAR is assumed static (the
+scan frame is the tracking frame).
 """
 from __future__ import annotations
 
@@ -23,177 +40,285 @@ import numpy as np
 
 from ..api import associate
 from ..errors import InvalidInputError
+from ..gating import chi2_threshold
 from ..models.base import wrap_angle
 from ..tracking.kalman import KalmanFilter
-from ..transforms import estimate_rigid_transform
 from ..types import Landmarks, Observations
-from .clustering import cluster_consecutive
+from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigid_correction)
+from .clustering import cluster_consecutive, cluster_ends
+from .fine import boundary_covariance, match
+from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
+                          transition)
+from .parameters import TrackerConfig
+from .shape import contain, corners, fit_rectangle, rotation, sample_visible
 
-FINE_METHODS = ('jcbb_points', 'nearest')
+INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
+"""Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
+MAX_COORDINATE = 1e5
+"""Points farther than this [m] on either axis count as no return."""
+FLIP_SPEED = 1.0
+"""Above this speed [m/s] the heading is turned by pi when it points against the velocity."""
 
-
-def rotation(yaw: float) -> np.ndarray:
-    """R(yaw) (2, 2)."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s], [s, c]])
-
-
-def transition(dt: float) -> np.ndarray:
-    """F of the constant-velocity, constant-turn-rate state (6, 6)."""
-    f = np.eye(6)
-    f[0, 3] = f[1, 4] = f[2, 5] = dt
-    return f
-
-
-def fictitious_measurement(centre: np.ndarray, yaw: float, previous_centre: np.ndarray,
-                           previous_yaw: float, transform, dt: float) -> np.ndarray:
-    """[x, y, yaw, vx, vy, yaw_rate] from the transform T that moved the predicted boundary
-    (around `centre`, `yaw`) onto the scan, over the step from the previous posterior pose."""
-    moved = transform.apply(np.asarray(centre, dtype=float)[None])[0]
-    new_yaw = wrap_angle(yaw + transform.yaw)
-    velocity = (moved - previous_centre) / dt
-    return np.array([moved[0], moved[1], new_yaw, velocity[0], velocity[1],
-                     wrap_angle(new_yaw - previous_yaw) / dt])
-
-
-def evenly(points: np.ndarray, most: int) -> np.ndarray:
-    """At most `most` of the points, evenly spaced in their order."""
-    if len(points) <= most:
-        return np.arange(len(points))
-    return np.unique(np.linspace(0, len(points) - 1, most).round().astype(int))
+__all__ = ['LidarObjectTracker', 'ObjectTrack', 'fictitious_measurement', 'rotation']
 
 
 @dataclass
 class ObjectTrack:
-    """A tracked rigid object: id, filter, boundary points in its own frame, misses."""
+    """A tracked rigid object: id, filter (state [x, y, yaw, vx, vy, yaw_rate] of the rectangle's
+    centre), rectangle length and width [m], last cluster centroid in the object frame (anchor),
+    update count, time [s] and posterior (x, y, yaw) of the last update, and this scan's matched
+    scan points."""
 
     id: int
     filter: KalmanFilter
-    boundary: np.ndarray
-    misses: int = 0
+    length: float
+    width: float
+    anchor: np.ndarray
     hits: int = 1
+    updated: float = 0.0
+    last: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    matched: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
-    def boundary_in_world(self, state: Optional[np.ndarray] = None) -> np.ndarray:
-        """The boundary points at the track's (or the given) pose (n, 2)."""
+    def corners(self, state: Optional[np.ndarray] = None) -> np.ndarray:
+        """The rectangle's corners (4, 2) at the track's (or the given) state."""
         x = self.filter.x if state is None else state
-        return self.boundary @ rotation(x[2]).T + x[:2]
+        return corners(x[:2], x[2], self.length, self.width)
+
+    def boundary(self, spacing: float, most: int) -> np.ndarray:
+        """Boundary points (n, 2): the faces visible from the sensor, every <= spacing [m], the
+        spacing widened so that there are at most about `most`."""
+        perimeter = 2 * (self.length + self.width)
+        return sample_visible(self.corners(), max(spacing, perimeter / 2 / most))
+
+    def anchor_world(self) -> np.ndarray:
+        """The predicted cluster centroid (2,)."""
+        return self.filter.x[:2] + rotation(self.filter.x[2]) @ self.anchor
 
 
-@dataclass
 class LidarObjectTracker:
-    """See the module docstring.  `step(points, dt)` once per scan (points (K, 2), scan order)."""
+    """See the module docstring.  `step(points, time)` once per scan; `tracks` holds them all,
+    `reported()` those updated on at least min_hits scans."""
 
-    gap: float = 0.3
-    min_points: int = 3
-    coarse: str = 'gnn'
-    fine: str = 'jcbb_points'
-    nearest_cutoff: float = 0.3
-    max_age: int = 2
-    boundary_sigma: float = 0.05
-    centroid_sigma: float = 1.0
-    max_boundary_points: int = 100
-    max_match_points: int = 30
-    measurement_sigmas: tuple = (0.1, 0.1, 0.05, 1.0, 1.0, 0.5)
-    process_sigmas: tuple = (0.05, 0.05, 0.01, 2.0, 2.0, 1.0)
-    tracks: list[ObjectTrack] = field(default_factory=list)
-    _next_id: int = 1
+    def __init__(self, config: Optional[TrackerConfig] = None) -> None:
+        self.config = config or TrackerConfig()
+        self.tracks: list[ObjectTrack] = []
+        self.time: Optional[float] = None
+        self._next_id = 1
 
-    def __post_init__(self) -> None:
-        if self.fine not in FINE_METHODS:
-            raise InvalidInputError(f'fine: {self.fine!r} is not one of {FINE_METHODS}')
+    def configure(self, config: TrackerConfig) -> None:
+        """New parameters, from the next scan (tracks are kept)."""
+        self.config = config
 
-    def step(self, points: np.ndarray, dt: float) -> list[ObjectTrack]:
-        """One scan; returns the tracks."""
+    def reset(self) -> None:
+        """Forget every track (time jumped backwards, e.g. a bag restarted)."""
+        self.tracks, self.time = [], None
+
+    def reported(self) -> list[ObjectTrack]:
+        """Tracks updated on at least min_hits scans."""
+        return [t for t in self.tracks if t.hits >= self.config.min_hits]
+
+    def step(self, points: np.ndarray, time: float) -> list[ObjectTrack]:
+        """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return).
+        Raises InvalidInputError when time is not after the previous scan's.  Returns the
+        reported tracks."""
+        if not np.isfinite(time) or (self.time is not None and time <= self.time):
+            raise InvalidInputError(f'time: {time!r} is not after the previous scan '
+                                    f'({self.time!r})')
+        config = self.config
         points = np.asarray(points, dtype=float).reshape(-1, 2)
-        labels = cluster_consecutive(points, self.gap, self.min_points)
-        clusters = [points[labels == c] for c in range(labels.max() + 1)] if labels.size else []
-        f = transition(dt)
-        q = np.diag(np.square(self.process_sigmas)) * dt
-        previous = {}
+        with np.errstate(invalid='ignore'):
+            points = np.where(np.abs(points) <= MAX_COORDINATE, points, np.nan)
+        labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
+        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump)
+        count = len(ends)
+        dt = None if self.time is None else time - self.time
+        before, self.time = self.time, time
         for track in self.tracks:
-            previous[track.id] = track.filter.x.copy()
-            track.filter.f, track.filter.q = f, q
+            track.filter.f = transition(dt)
+            track.filter.q = process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)
             track.filter.predict()
-        updated_clusters, updated_tracks = set(), set()
-        for track_index, cluster_index in self._coarse(clusters):
+            track.matched = np.zeros((0, 2))
+        members = self._coarse(points, labels, count)
+        free = np.ones(count, dtype=bool)
+        for track_index, clusters in members.items():
             track = self.tracks[track_index]
-            if self._fine_update(track, clusters[cluster_index], previous[track.id], dt):
-                updated_clusters.add(cluster_index)
-                updated_tracks.add(track.id)
+            coasting = track.updated < before
+            try:
+                corrected = self._update(track, points, labels, clusters, ends, edges, time)
+            except (InvalidInputError, np.linalg.LinAlgError):
+                corrected = False  # degenerate pairs: no correction this scan
+            if corrected:
+                track.hits += 1
+                track.updated = time
+                track.last = track.filter.x[:3].copy()
+            if track.updated == time or not coasting:
+                free[clusters] = False
+        self.tracks = [t for t in self.tracks if time - t.updated <= config.max_age
+                       and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
+        self._drop_duplicates(time)
+        for cluster in np.flatnonzero(free):
+            if np.count_nonzero(labels == cluster) >= config.min_pairs:
+                self._start(points[labels == cluster], occluded[cluster], time)
+        return self.reported()
+
+    def _drop_duplicates(self, time: float) -> None:
+        """Drop each track not updated at `time` whose centre lies in the rectangle of a track
+        that was (the same object, found again by a newer track)."""
+        updated = [t for t in self.tracks if t.updated == time]
+        if not updated:
+            return
+        keep = []
         for track in self.tracks:
-            track.misses = 0 if track.id in updated_tracks else track.misses + 1
-            track.hits += int(track.id in updated_tracks)
-        self.tracks = [t for t in self.tracks if t.misses <= self.max_age]
-        for index, cluster in enumerate(clusters):
-            if index not in updated_clusters:
-                self._start(cluster)
-        return self.tracks
+            if track.updated != time:
+                inside = [np.all(np.abs((track.filter.x[:2] - other.filter.x[:2])
+                                        @ rotation(other.filter.x[2]))
+                                 <= [other.length / 2, other.width / 2]) for other in updated]
+                if any(inside):
+                    continue
+            keep.append(track)
+        self.tracks = keep
 
-    def _coarse(self, clusters: list[np.ndarray]) -> list[tuple[int, int]]:
-        if not self.tracks or not clusters:
-            return []
-        centroids = np.array([c.mean(axis=0) for c in clusters])
-        landmarks = Landmarks(np.arange(len(self.tracks)),
-                              np.array([t.filter.x[:2] for t in self.tracks]),
-                              np.array([t.filter.p[:2, :2] for t in self.tracks]))
-        observations = Observations(centroids, np.tile(np.eye(2) * self.centroid_sigma ** 2,
-                                                       (len(clusters), 1, 1)), 'point_map')
-        assignment = associate(landmarks, observations, self.coarse).assignment
-        return [(int(t), c) for c, t in enumerate(assignment) if t >= 0]
+    def _coarse(self, points: np.ndarray, labels: np.ndarray, count: int) -> dict[int, list]:
+        """{track index: [cluster indices]} (step 3 of the module docstring)."""
+        if not self.tracks or not count:
+            return {}
+        config = self.config
+        sums = np.zeros((count, 2))
+        inside = labels >= 0
+        np.add.at(sums, labels[inside], points[inside])
+        centroids = sums / np.bincount(labels[inside], minlength=count)[:, None]
+        means, covariances = [], []
+        for track in self.tracks:
+            x = track.filter.x
+            a = np.hstack([np.eye(2), (J @ rotation(x[2]) @ track.anchor)[:, None]])
+            means.append(track.anchor_world())
+            covariances.append(a @ track.filter.p[:3, :3] @ a.T
+                               + config.coarse_sigma ** 2 * np.eye(2))
+        landmarks = Landmarks(np.arange(len(self.tracks)), np.array(means), np.array(covariances))
+        observations = Observations(centroids, np.broadcast_to(
+            config.point_sigma ** 2 * np.eye(2), (count, 2, 2)), 'point_map')
+        assignment = associate(landmarks, observations, config.coarse,
+                               gate_probability=config.gate_probability).assignment
+        members: dict[int, list] = {}
+        for cluster, track_index in enumerate(assignment):
+            if track_index >= 0:
+                members.setdefault(int(track_index), []).append(cluster)
+        leftover = np.flatnonzero(assignment < 0)
+        if leftover.size:
+            states = np.array([t.filter.x for t in self.tracks])
+            halves = np.array([[t.length / 2, t.width / 2] for t in self.tracks]) \
+                + config.cluster_gap
+            delta = centroids[leftover][:, None, :] - states[None, :, :2]  # (L, T, 2)
+            c, s = np.cos(states[:, 2]), np.sin(states[:, 2])
+            body = np.stack([c * delta[..., 0] + s * delta[..., 1],
+                             -s * delta[..., 0] + c * delta[..., 1]], axis=-1)
+            within = np.all(np.abs(body) <= halves[None], axis=-1)
+            distance = np.where(within, np.hypot(delta[..., 0], delta[..., 1]), np.inf)
+            for row, cluster in enumerate(leftover):
+                if within[row].any():
+                    members.setdefault(int(np.argmin(distance[row])), []).append(int(cluster))
+        return members
 
-    def _fine_update(self, track: ObjectTrack, cluster: np.ndarray, previous: np.ndarray,
-                     dt: float) -> bool:
-        predicted = track.boundary_in_world()
-        sample = cluster[evenly(cluster, self.max_match_points)]
-        pairs = self._match(sample, predicted)
-        if len(pairs) < 2:
-            return False
-        try:
-            transform = estimate_rigid_transform(predicted[pairs[:, 1]], sample[pairs[:, 0]])
-        except InvalidInputError:
-            return False
+    def _edges(self, points: np.ndarray, clusters: list, ends: np.ndarray,
+               edges: np.ndarray) -> list[EdgePoint]:
+        """EdgePoint of each cluster end flagged as an object edge."""
+        result = []
+        for cluster in clusters:
+            first, last = ends[cluster]
+            if last - first < 1:
+                continue
+            for end, inner, flagged in ((first, first + 1, edges[cluster, 0]),
+                                        (last, last - 1, edges[cluster, 1])):
+                if flagged:
+                    step = points[end] - points[inner]
+                    spacing = float(np.hypot(*step))
+                    if spacing > 0:
+                        result.append(EdgePoint(points[end], step / spacing, spacing))
+        return result
+
+    def _update(self, track: ObjectTrack, points: np.ndarray, labels: np.ndarray,
+                clusters: list, ends: np.ndarray, edges: np.ndarray, time: float) -> bool:
+        """Steps 4-6 for one track; False when the scan could not correct it (too few pairs,
+        or the measurement outside the filter's gate); InvalidInputError or LinAlgError when
+        the pairs are degenerate."""
+        config = self.config
+        scan = points[np.isin(labels, clusters)]
+        sample = scan[evenly(len(scan), config.max_match_points)]
         x = track.filter.x
-        z = fictitious_measurement(x[:2], x[2], previous[:2], previous[2], transform, dt)
+        boundary = track.boundary(config.boundary_spacing, config.max_boundary_points)
+        low, high = sample.min(axis=0) - 1.0, sample.max(axis=0) + 1.0
+        near = np.all((boundary >= low) & (boundary <= high), axis=1)
+        boundary = boundary[near]
+        joint = boundary_covariance(boundary, x[:2], track.filter.p[:3, :3], config.point_sigma)
+        pairs = match(sample, boundary, joint, config.fine, config.jnis, config.point_sigma,
+                      config.bearing_sigma, config.nearest_cutoff, config.gate_probability,
+                      config.time_budget_ms, config.max_nodes)
+        if len(pairs) < config.min_pairs:
+            return False
+        correction = self._correction(track, sample, boundary, pairs, points, clusters, ends,
+                                      edges)
+        elapsed = time - track.updated
+        z = fictitious_measurement(x[:2], x[2], track.last[:2], track.last[2], correction,
+                                   elapsed)
         z[2] = x[2] + wrap_angle(z[2] - x[2])
-        track.filter.r = np.diag(np.square(self.measurement_sigmas))
-        track.filter.update(z)
-        track.filter.x[2] = wrap_angle(track.filter.x[2])
-        self._grow_boundary(track, cluster)
+        rows = slice(None) if config.velocity_measurement else slice(0, 3)
+        track.filter.h = np.eye(6)[rows]
+        track.filter.r = measurement_covariance(correction.covariance, elapsed,
+                                                config.measurement_sigmas())[rows, rows]
+        innovation = z[rows] - x[rows]
+        if innovation @ np.linalg.solve(track.filter.innovation_covariance(), innovation) > \
+                chi2_threshold(config.gate_probability, len(innovation)):
+            return False
+        track.filter.update(z[rows])
+        x = track.filter.x
+        speed = np.hypot(x[3], x[4])
+        if speed > FLIP_SPEED and np.cos(x[2] - np.arctan2(x[4], x[3])) < 0:
+            x[2] += np.pi
+            track.anchor = -track.anchor
+        x[2] = wrap_angle(x[2])
+        track.matched = sample[pairs[:, 0]]
+        self._grow(track, track.matched, scan)
         return True
 
-    def _grow_boundary(self, track: ObjectTrack, cluster: np.ndarray) -> None:
-        """Add the scan points (object frame), thin to 5 cm cells, re-centre on the bounding
-        box (moving x, y by the same offset)."""
+    def _correction(self, track: ObjectTrack, sample: np.ndarray, boundary: np.ndarray,
+                    pairs: np.ndarray, points: np.ndarray, clusters: list, ends: np.ndarray,
+                    edges: np.ndarray) -> Correction:
+        config = self.config
         x = track.filter.x
-        body = (cluster - x[:2]) @ rotation(x[2])
-        boundary = np.vstack([track.boundary, body])
-        _, unique = np.unique(np.round(boundary / 0.05), axis=0, return_index=True)
-        boundary = boundary[np.sort(unique)]
-        boundary = boundary[evenly(boundary, self.max_boundary_points)]
-        offset = (boundary.min(axis=0) + boundary.max(axis=0)) / 2
-        track.boundary = boundary - offset
-        x[:2] = x[:2] + rotation(x[2]) @ offset
+        if config.transform == 'point_to_line':
+            return point_to_line_correction(
+                sample, boundary, pairs, track.corners(), self._edges(points, clusters, ends,
+                                                                       edges),
+                x[:2], track.filter.p[:3, :3], config.point_sigma)
+        return rigid_correction(sample, boundary, pairs, x[:2], config.transform == 'ransac',
+                                config.ransac_threshold)
 
-    def _match(self, scan: np.ndarray, boundary: np.ndarray) -> np.ndarray:
-        """(pairs (n, 2): scan index, boundary index)."""
-        if self.fine == 'nearest':
-            distance = np.hypot(*(scan[:, None, :] - boundary[None, :, :]).transpose(2, 0, 1))
-            nearest = distance.argmin(axis=1)
-            keep = distance[np.arange(len(scan)), nearest] <= self.nearest_cutoff
-            return np.column_stack([np.flatnonzero(keep), nearest[keep]])
-        landmarks = Landmarks(np.arange(len(boundary)), boundary,
-                              np.tile(np.eye(2) * self.boundary_sigma ** 2, (len(boundary), 1, 1)))
-        observations = Observations(scan, np.tile(np.eye(2) * self.boundary_sigma ** 2,
-                                                  (len(scan), 1, 1)), 'point_map')
-        result = associate(landmarks, observations, 'jcbb_points', time_budget_ms=10.0)
-        paired = np.flatnonzero(result.assignment >= 0)
-        return np.column_stack([paired, result.assignment[paired]]).astype(int)
+    def _grow(self, track: ObjectTrack, matched: np.ndarray, scan: np.ndarray) -> None:
+        """Step 6: contain the matched points; the anchor becomes this scan's centroid."""
+        x = track.filter.x
+        r = rotation(x[2])
+        body = (matched - x[:2]) @ r
+        shift, track.length, track.width = contain(body, track.length, track.width,
+                                                   -x[:2] @ r, 2 * self.config.point_sigma)
+        x[:2] = x[:2] + r @ shift
+        track.anchor = (scan.mean(axis=0) - x[:2]) @ r
 
-    def _start(self, cluster: np.ndarray) -> None:
-        offset = (cluster.min(axis=0) + cluster.max(axis=0)) / 2
-        x0 = np.array([offset[0], offset[1], 0.0, 0.0, 0.0, 0.0])
-        p0 = np.diag([0.5, 0.5, 0.3, 25.0, 25.0, 1.0])
-        self.tracks.append(ObjectTrack(self._next_id, KalmanFilter(
-            x0, p0, np.eye(6), np.eye(6), np.eye(6), np.diag(np.square(self.measurement_sigmas))),
-            cluster - offset))
+    def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float) -> None:
+        config = self.config
+        centre, yaw, length, width = fit_rectangle(cluster, config.prior_length,
+                                                   config.prior_width, occluded=occluded)
+        x0 = np.array([centre[0], centre[1], yaw, 0.0, 0.0, 0.0])
+        p0 = np.diag(np.square(INITIAL_SIGMAS))
+        track = ObjectTrack(self._next_id, KalmanFilter(x0, p0, np.eye(6), np.eye(6), np.eye(6),
+                                                        np.eye(6)), length, width,
+                            (cluster.mean(axis=0) - centre) @ rotation(yaw), updated=time,
+                            last=x0[:3].copy())
+        self.tracks.append(track)
         self._next_id += 1
+
+
+def evenly(count: int, most: int) -> np.ndarray:
+    """Indices of at most `most` of `count` items, evenly spaced, first and last included."""
+    if count <= most:
+        return np.arange(count)
+    return np.unique(np.linspace(0, count - 1, most).round().astype(int))

@@ -1,0 +1,305 @@
+"""da_lidar_eval: the LiDAR object tracker (seed 003) on a LiDAR bag, scored against its truth.
+
+    da_lidar_eval [BAG] [--rows default,nearest,polar,...] [--first 0] [--repeat 1] [--live]
+                  [-p name=value ...]
+
+Runs the core tracker offline over /scan (sensor_msgs/LaserScan), once per row (a row = the
+default parameters with some changed), and prints a Markdown table.  --live also sends the bag's
+scans to a lidar_tracker_node over real DDS (loopback, own domain; each scan once the previous
+one's `tracks` arrived) and scores those `tracks` (the same numbers as offline, or a bug).
+
+Scores, per object (the truth on /ground_truth/objects, same frame as the scan): in each scan
+from --first on, the reported tracks are paired with the true objects by the Hungarian method on
+centre distance (pairs farther than 2.5 m are not pairs); position RMSE [m] of the rectangle
+centre, heading RMSE [deg] (yaw error wrapped to (-180, 180]), velocity RMSE [m/s] (norm of the
+vector error), over the scans where the object has a pair; coverage = the share of scans with a
+pair; id switches = the times the paired track id changes.  Time per scan: tracker.step only
+(clustering, association, update), median and 95th percentile [ms], one core.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Optional, Sequence
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ..core.errors import InvalidInputError
+from ..core.lidar import LidarObjectTracker, TrackerConfig
+from .reader import BagError, BagReader
+
+BAG = Path(__file__).resolve().parents[2] / 'bags' / 'lidar_two_cars'
+SCAN, OBJECTS = '/scan', '/ground_truth/objects'
+PAIR_DISTANCE = 2.5
+"""Largest centre distance [m] of a (track, true object) pair."""
+ROWS = {
+    'default': ('jcbb_points, cartesian jNIS, point_to_line', {}),
+    'nearest': ('nearest (cut-off 0.3 m), point_to_line', {'fine': 'nearest'}),
+    'polar': ('jcbb_points, polar jNIS, point_to_line', {'jnis': 'polar'}),
+    'kabsch': ('jcbb_points, cartesian jNIS, kabsch', {'transform': 'kabsch'}),
+    'nearest_kabsch': ('nearest (cut-off 0.3 m), kabsch', {'fine': 'nearest',
+                                                           'transform': 'kabsch'}),
+    'polar_kabsch': ('jcbb_points, polar jNIS, kabsch', {'jnis': 'polar', 'transform': 'kabsch'}),
+    'ransac': ('jcbb_points, cartesian jNIS, ransac', {'transform': 'ransac'}),
+    'velocity': ('jcbb_points, cartesian jNIS, point_to_line, velocity measured (seed)',
+                 {'velocity_measurement': True}),
+    'seed': ('jcbb_points, cartesian jNIS, kabsch, velocity measured (seed)',
+             {'transform': 'kabsch', 'velocity_measurement': True}),
+}
+"""Row name -> (label, parameters changed from the defaults)."""
+
+
+@dataclass
+class Scan:
+    """One scan: time [s], points (K, 2), truth (structured: id, x, y, yaw, vx, vy, ...)."""
+
+    time: float
+    points: np.ndarray
+    truth: np.ndarray
+
+
+@dataclass
+class Estimate:
+    """The reported tracks of one scan: ids (n,), states (n, 6)."""
+
+    ids: np.ndarray
+    states: np.ndarray
+
+
+@dataclass
+class ObjectScore:
+    """Scores of one true object."""
+
+    position_rmse: float
+    heading_rmse_deg: float
+    velocity_rmse: float
+    coverage: float
+    id_switches: int
+    track_ids: list = field(default_factory=list)
+
+
+def scan_points(ranges: np.ndarray, angle_min: float, angle_increment: float) -> np.ndarray:
+    """(K, 2) points of a scan's ranges; non-finite ranges give non-finite points."""
+    ranges = np.asarray(ranges, dtype=float)
+    angles = angle_min + angle_increment * np.arange(len(ranges))
+    with np.errstate(invalid='ignore'):
+        return np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+
+
+def read_scans(bag: Path) -> list[Scan]:
+    """The bag's scans with the truth of the same log time."""
+    from msg_adapters import cloud_to_array
+    reader = BagReader(bag)
+    reader.require([SCAN, OBJECTS])
+    scans: dict[int, Scan] = {}
+    truths: dict[int, np.ndarray] = {}
+    for message in reader.messages([SCAN, OBJECTS]):
+        if message.topic == SCAN:
+            msg = message.msg
+            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            scans[message.log_time_ns] = Scan(stamp, scan_points(
+                msg.ranges, msg.angle_min, msg.angle_increment), None)
+        else:
+            truths[message.log_time_ns] = cloud_to_array(message.msg)
+    result = []
+    for log_time in sorted(scans):
+        if log_time in truths:
+            scans[log_time].truth = truths[log_time]
+            result.append(scans[log_time])
+    return result
+
+
+def run_offline(scans: Sequence[Scan], config: TrackerConfig) -> tuple[list[Estimate], np.ndarray]:
+    """(reported tracks per scan, time per scan [ms]) of the core tracker."""
+    tracker = LidarObjectTracker(config)
+    estimates, elapsed = [], []
+    for scan in scans:
+        started = time.perf_counter()
+        reported = tracker.step(scan.points, scan.time)
+        elapsed.append((time.perf_counter() - started) * 1000.0)
+        estimates.append(Estimate(np.array([t.id for t in reported], dtype=int),
+                                  np.array([t.filter.x for t in reported]).reshape(-1, 6)))
+    return estimates, np.array(elapsed)
+
+
+def score(scans: Sequence[Scan], estimates: Sequence[Estimate],
+          first: int = 0) -> dict[int, ObjectScore]:
+    """Per true object id, its ObjectScore over scans[first:] (module docstring)."""
+    errors: dict[int, list] = {}
+    ids: dict[int, list] = {}
+    counted = 0
+    for scan, estimate in list(zip(scans, estimates))[first:]:
+        counted += 1
+        truth = scan.truth
+        for object_id in truth['id']:
+            errors.setdefault(int(object_id), [])
+            ids.setdefault(int(object_id), [])
+        if not len(estimate.ids) or not len(truth):
+            continue
+        true_xy = np.column_stack([truth['x'], truth['y']]).astype(float)
+        difference = true_xy[:, None, :] - estimate.states[None, :, :2]
+        distance = np.hypot(difference[..., 0], difference[..., 1])
+        rows, columns = linear_sum_assignment(np.where(distance <= PAIR_DISTANCE, distance, 1e6))
+        for row, column in zip(rows, columns):
+            if distance[row, column] > PAIR_DISTANCE:
+                continue
+            state, true = estimate.states[column], truth[row]
+            heading = np.angle(np.exp(1j * (state[2] - float(true['yaw']))))
+            velocity = np.hypot(state[3] - float(true['vx']), state[4] - float(true['vy']))
+            errors[int(true['id'])].append((distance[row, column], heading, velocity))
+            ids[int(true['id'])].append(int(estimate.ids[column]))
+    result = {}
+    for object_id, rows in errors.items():
+        array = np.array(rows).reshape(-1, 3)
+        rmse = np.sqrt(np.mean(array ** 2, axis=0)) if len(array) else np.full(3, np.nan)
+        track_ids = ids[object_id]
+        switches = int(sum(a != b for a, b in zip(track_ids, track_ids[1:])))
+        result[object_id] = ObjectScore(float(rmse[0]), float(np.degrees(rmse[1])),
+                                        float(rmse[2]), len(array) / max(counted, 1), switches,
+                                        sorted(set(track_ids)))
+    return result
+
+
+def estimate_from_tracks(msg) -> Estimate:
+    """An Estimate from a `tracks` PointCloud2 (msg_adapters.lidar.TRACK_DTYPE)."""
+    from msg_adapters import cloud_to_array
+    array = cloud_to_array(msg)
+    states = np.column_stack([array[name].astype(float) for name in
+                              ('x', 'y', 'yaw', 'vx', 'vy', 'yaw_rate')]).reshape(-1, 6)
+    return Estimate(array['id'].astype(int), states)
+
+
+def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0) -> list[Estimate]:
+    """The bag's scans through a lidar_tracker_node (parameters = config) over DDS, one at a
+    time; the reported tracks per scan (RuntimeError when a reply does not come)."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import LaserScan, PointCloud2
+
+    from ..lidar_tracker_node import LidarTrackerNode
+    from .ros_environment import use_loopback_dds
+    use_loopback_dds()
+    context = Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    reliable = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+    overrides = [Parameter(name, value=getattr(config, name)) for name in
+                 config.__dataclass_fields__] + [Parameter('input_qos', value='reliable')]
+    node = LidarTrackerNode(context=context, parameter_overrides=overrides)
+    player = rclpy.create_node('da_lidar_eval', context=context)
+    try:
+        for each in (node, player):
+            executor.add_node(each)
+        publisher = player.create_publisher(LaserScan, 'scan', reliable)
+        replies: list = []
+        player.create_subscription(PointCloud2, 'tracks', replies.append, reliable)
+
+        def spin_until(condition) -> None:
+            deadline = time.monotonic() + timeout
+            while not condition():
+                if time.monotonic() > deadline:
+                    raise RuntimeError('lidar_tracker_node did not answer in time')
+                executor.spin_once(timeout_sec=0.01)
+        spin_until(lambda: publisher.get_subscription_count() > 0
+                   and player.count_publishers('tracks') > 0)
+        for count, message in enumerate(BagReader(bag).messages([SCAN]), 1):
+            publisher.publish(message.msg)
+            spin_until(lambda: len(replies) >= count)
+        return [estimate_from_tracks(msg) for msg in replies]
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        player.destroy_node()
+        rclpy.shutdown(context=context)
+
+
+def table_rows(label: str, scores: dict[int, ObjectScore], elapsed: Optional[np.ndarray]) -> str:
+    """One Markdown table row."""
+    cells = [label]
+    for key in ('position_rmse', 'heading_rmse_deg', 'velocity_rmse'):
+        cells.append(' / '.join(f'{getattr(scores[i], key):.2f}' if key != 'heading_rmse_deg'
+                                else f'{getattr(scores[i], key):.1f}' for i in sorted(scores)))
+    cells.append(' / '.join(f'{100 * scores[i].coverage:.0f}' for i in sorted(scores)))
+    cells.append(' / '.join(str(scores[i].id_switches) for i in sorted(scores)))
+    if elapsed is None or not len(elapsed):
+        cells.append('')
+    else:
+        cells.append(f'{np.median(elapsed):.1f} / {np.percentile(elapsed, 95):.1f}')
+    return '| ' + ' | '.join(cells) + ' |'
+
+
+HEADER = ('| fine association, jNIS, correction | position RMSE [m] | heading RMSE [deg] | '
+          'velocity RMSE [m/s] | coverage [%] | id switches | ms per scan (median / p95) |\n'
+          '|---|---|---|---|---|---|---|')
+
+
+def parse_values(pairs: Iterable[str]) -> dict:
+    """name=value strings -> typed values (int, float, bool or str)."""
+    values = {}
+    for pair in pairs:
+        name, _, text = pair.partition('=')
+        for cast in (int, float):
+            try:
+                values[name] = cast(text)
+                break
+            except ValueError:
+                continue
+        else:
+            values[name] = {'true': True, 'false': False}.get(text.lower(), text)
+    return values
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog='da_lidar_eval', description=__doc__.splitlines()[0])
+    parser.add_argument('bag', nargs='?', type=Path, default=BAG)
+    parser.add_argument('--rows', default='default,nearest,polar,polar_kabsch,kabsch,'
+                        'nearest_kabsch,velocity,seed',
+                        help=f'comma-separated rows (of {", ".join(ROWS)})')
+    parser.add_argument('--first', type=int, default=0, help='first scan scored')
+    parser.add_argument('--repeat', type=int, default=1,
+                        help='runs per row; the timing is over all of them')
+    parser.add_argument('-p', '--parameter', action='append', default=[],
+                        help='name=value for every row (e.g. -p max_age=0.5)')
+    parser.add_argument('--live', action='store_true',
+                        help='also play the bag through lidar_tracker_node over DDS (default row)')
+    args = parser.parse_args(argv)
+    rows = [r for r in args.rows.split(',') if r]
+    unknown = [r for r in rows if r not in ROWS]
+    if unknown:
+        parser.error(f'unknown row {unknown[0]!r} (valid: {", ".join(ROWS)})')
+    try:
+        scans = read_scans(args.bag)
+        base = TrackerConfig().with_values(**parse_values(args.parameter))
+    except (BagError, InvalidInputError) as error:
+        print(f'da_lidar_eval: {error}', file=sys.stderr)
+        return 2
+    ids = sorted({int(i) for scan in scans for i in scan.truth['id']})
+    print(f'{args.bag.name}: {len(scans)} scans, objects {", ".join(map(str, ids))} '
+          f'(values: object {" / ".join(map(str, ids))}); scans {args.first}-{len(scans) - 1} '
+          'scored')
+    print(HEADER)
+    for row in rows:
+        label, changes = ROWS[row]
+        config = base.with_values(**changes)
+        elapsed = []
+        for _ in range(max(args.repeat, 1)):
+            estimates, times = run_offline(scans, config)
+            elapsed.append(times)
+        print(table_rows(label, score(scans, estimates, args.first), np.concatenate(elapsed)),
+              flush=True)
+    if args.live:
+        estimates = run_live(args.bag, base)
+        print(table_rows(f'{ROWS["default"][0]}, live: lidar_tracker_node over DDS',
+                         score(scans, estimates, args.first), None))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,151 @@
+"""Rigid correction of a track's predicted pose from its matched scan points (seed 003's
+"transformation estimation"), three ways (`transform`):
+
+* kabsch: least squares over the point pairs (the seed; core.transforms.estimate_rigid_transform);
+* ransac: RANSAC over minimal samples of pairs, then Kabsch on the inliers (the seed's cheaper
+  alternative; core.transforms.ransac_rigid_transform);
+* point_to_line (added here): each pair (s, b) constrains only the distance of s from the line of
+  b's face, r = n . (s - X(b)); each cluster end that is an object edge constrains the nearest
+  visible model corner in 2-D.  Why: scan points sit at fixed beam angles, so a point-to-point
+  pair on a face says nothing about sliding along that face, yet Kabsch counts it as "no
+  sliding" and shrinks the correction by the share of such pairs (the aperture problem); the
+  face's ends (the cluster's edge points) are what carries that component.
+
+The correction X(p) = c + R(yaw)(p - c) + t moves the predicted boundary onto the scan, c being the
+predicted centre; it is reported as `Correction` with the covariance of (t_x, t_y, yaw).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from ..transforms import estimate_rigid_transform, ransac_rigid_transform
+from .shape import faces, rotation, visible_faces
+
+TRANSFORMS = ('point_to_line', 'kabsch', 'ransac')
+J = np.array([[0.0, -1.0], [1.0, 0.0]])
+"""dR(a)/da = J R(a)."""
+
+
+@dataclass(frozen=True)
+class Correction:
+    """X(p) = centre + R(yaw)(p - centre) + translation; covariance (3, 3) of (t_x, t_y, yaw)
+    [m^2, m rad, rad^2]."""
+
+    centre: np.ndarray
+    translation: np.ndarray
+    yaw: float
+    covariance: np.ndarray
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        """(n, 2) -> (n, 2) corrected points."""
+        return (np.asarray(points, float) - self.centre) @ rotation(self.yaw).T + self.centre \
+            + self.translation
+
+
+@dataclass(frozen=True)
+class EdgePoint:
+    """A cluster end that is an object edge: the end point (2,), the unit direction (2,) along the
+    face towards the end, and the spacing [m] to the previous point of the cluster (the true
+    corner lies 0 to one spacing beyond the end point, uniformly)."""
+
+    point: np.ndarray
+    outward: np.ndarray
+    spacing: float
+
+
+def from_rigid(transform, centre: np.ndarray) -> Correction:
+    """A RigidTransform2D q = R p + t as a Correction about `centre`: translation = R c + t - c;
+    covariance mapped by d(translation, yaw)/d(x, y, yaw) = [[I, J R c], [0, 1]]."""
+    r = transform.rotation()
+    g = np.eye(3)
+    g[:2, 2] = J @ r @ centre
+    return Correction(np.asarray(centre, float), transform.apply(centre[None])[0] - centre,
+                      float(transform.yaw), g @ transform.covariance @ g.T)
+
+
+def rigid_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.ndarray,
+                     centre: np.ndarray, ransac: bool = False,
+                     inlier_threshold: float = 0.1) -> Correction:
+    """kabsch / ransac over the pairs (n, 2) of scan (K, 2) and boundary (N, 2) points.
+    Raises InvalidInputError when the pairs cannot fix a transform."""
+    source, target = boundary[pairs[:, 1]], scan[pairs[:, 0]]
+    transform = ransac_rigid_transform(source, target, inlier_threshold) if ransac \
+        else estimate_rigid_transform(source, target)
+    return from_rigid(transform, np.asarray(centre, float))
+
+
+def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.ndarray,
+                             corner_points: np.ndarray, edges: list[EdgePoint],
+                             centre: np.ndarray, pose_covariance: np.ndarray, sigma: float,
+                             gate: float = 13.8, prior_sigmas=(1.0, 1.0, 0.5),
+                             iterations: int = 3) -> Correction:
+    """Gauss-Newton over (t_x, t_y, yaw) from 0 (see the module docstring).
+
+    scan (K, 2), boundary (N, 2) points and pairs (n, 2) as from fine.match; corner_points
+    (4, 2) of the predicted rectangle (shape.corners).  Pair residual r = n_f . (X^-1(s) - b),
+    variance sigma^2, f the visible face through b nearest to s.  Edge residual (2,)
+    X^-1(e + h/2 d) - k for the visible-face corner k nearest to it, covariance
+    sigma^2 I + h^2 / 12 d d^T (+ the corner's from pose_covariance when gating: edges whose
+    squared Mahalanobis distance exceeds `gate` are ignored).  A weak prior N(0,
+    diag(prior_sigmas)^2) keeps directions no residual constrains at 0 (their variance stays
+    ~ the prior's, so the filter ignores them).  Covariance: inverse of the Gauss-Newton
+    information matrix.
+    """
+    centre = np.asarray(centre, float)
+    start, direction, length = faces(corner_points)
+    normal = np.column_stack([direction[:, 1], -direction[:, 0]])
+    visible = visible_faces(corner_points)
+    s, b = scan[pairs[:, 0]], boundary[pairs[:, 1]]
+    # faces through b (distance to the segment ~0), the one whose line is nearest to s
+    along = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], direction)
+    across = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], normal)
+    on_face = visible & (np.abs(across) < 1e-6) & (along > -1e-6) & (along < length + 1e-6)
+    distance = np.abs(np.einsum('nfd,fd->nf', s[:, None, :] - start[None], normal))
+    face = np.argmin(np.where(on_face, distance, np.inf), axis=1)
+    keep = on_face[np.arange(len(s)), face]
+    s, b, n = s[keep], b[keep], normal[face[keep]]
+    corner_ids = np.flatnonzero(visible | np.roll(visible, 1))  # corners of visible faces
+    edge_rows = []
+    for edge in edges:
+        expected = edge.point + edge.outward * edge.spacing / 2
+        covariance = sigma ** 2 * np.eye(2) + edge.spacing ** 2 / 12 * np.outer(
+            edge.outward, edge.outward)
+        k = corner_points[corner_ids]
+        nearest = int(np.argmin(np.hypot(*(k - expected).T))) if len(k) else -1
+        if nearest < 0:
+            continue
+        corner = k[nearest]
+        a = np.hstack([np.eye(2), (J @ (corner - centre))[:, None]])
+        innovation = expected - corner
+        total = covariance + a @ pose_covariance @ a.T
+        if innovation @ np.linalg.solve(total, innovation) <= gate:
+            edge_rows.append((expected, corner, np.linalg.inv(covariance)))
+    prior = np.diag(1.0 / np.square(prior_sigmas))
+    p = np.zeros(3)
+    for _ in range(iterations):
+        r_inv = rotation(-p[2])
+        # X^-1(q) = c + R(-yaw)(q - c - t); d/dt = -R(-yaw), d/dyaw = -J R(-yaw)(q - c - t)
+        local = s - centre - p[:2]
+        moved = local @ r_inv.T + centre
+        residual = np.einsum('nd,nd->n', n, moved - b)
+        jac = np.empty((len(s), 3))
+        jac[:, :2] = -n @ r_inv
+        jac[:, 2] = -np.einsum('nd,nd->n', n, local @ (J @ r_inv).T)
+        information = prior + jac.T @ jac / sigma ** 2
+        gradient = prior @ p + jac.T @ residual / sigma ** 2
+        for expected, corner, weight in edge_rows:
+            local_e = expected - centre - p[:2]
+            r_e = r_inv @ local_e + centre - corner
+            j_e = np.hstack([-r_inv, (-J @ r_inv @ local_e)[:, None]])
+            information += j_e.T @ weight @ j_e
+            gradient += j_e.T @ weight @ r_e
+        step = np.linalg.solve(information, gradient)
+        p = p - step
+        if np.abs(step).max() < 1e-9:
+            break
+    if not np.all(np.isfinite(p)):
+        raise InvalidInputError('point_to_line: no finite correction')
+    return Correction(centre, p[:2].copy(), float(p[2]), np.linalg.inv(information))

@@ -1,0 +1,57 @@
+"""Seed 003's fictitious measurement and the filter model of a tracked rigid object.
+
+State x = [x, y, yaw, vx, vy, yaw_rate] (constant velocity and turn rate over dt, linear).
+The correction X that moved the predicted boundary (around the predicted centre c-, yaw-) onto
+the scan gives the measurement
+    z = [X(c-), yaw- + yaw_X, (X(c-) - c_last) / dt, (yaw- + yaw_X - yaw_last) / dt]
+(c_last, yaw_last: the posterior at the track's last update, dt the time since), i.e. the motion
+at constant linear and angular velocity.  Its noise: the seed's diagonal R (velocity terms
+larger) plus, added here, the correction's own covariance C of (t_x, t_y, yaw) mapped by
+G = [I3; I3 / dt]: R + G C G^T.  The velocity terms reuse the position difference the filter
+already holds (they are not independent of its prior), so the tracker uses only the first three
+terms unless velocity_measurement is set (README "LiDAR object tracking").
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..models.base import wrap_angle
+
+
+def transition(dt: float) -> np.ndarray:
+    """F (6, 6): x += vx dt, y += vy dt, yaw += yaw_rate dt."""
+    f = np.eye(6)
+    f[0, 3] = f[1, 4] = f[2, 5] = dt
+    return f
+
+
+def process_noise(dt: float, accel_sigma: float, yaw_accel_sigma: float) -> np.ndarray:
+    """Q (6, 6) of white (angular) acceleration with spectral densities accel_sigma^2
+    [m^2/s^3] and yaw_accel_sigma^2 [rad^2/s^3]: per (position, velocity) pair
+    q [[dt^3/3, dt^2/2], [dt^2/2, dt]]."""
+    q = np.zeros((6, 6))
+    for position, density in ((0, accel_sigma ** 2), (1, accel_sigma ** 2),
+                              (2, yaw_accel_sigma ** 2)):
+        velocity = position + 3
+        q[position, position] = density * dt ** 3 / 3
+        q[position, velocity] = q[velocity, position] = density * dt ** 2 / 2
+        q[velocity, velocity] = density * dt
+    return q
+
+
+def fictitious_measurement(centre: np.ndarray, yaw: float, previous_centre: np.ndarray,
+                           previous_yaw: float, transform, dt: float) -> np.ndarray:
+    """z (6,) of the module docstring; `transform` has apply((n, 2)) and yaw (a Correction or a
+    RigidTransform2D), centre/yaw the predicted pose, previous_* the previous posterior."""
+    moved = transform.apply(np.asarray(centre, dtype=float)[None])[0]
+    new_yaw = wrap_angle(yaw + transform.yaw)
+    velocity = (moved - np.asarray(previous_centre, float)) / dt
+    return np.array([moved[0], moved[1], new_yaw, velocity[0], velocity[1],
+                     wrap_angle(new_yaw - previous_yaw) / dt])
+
+
+def measurement_covariance(correction_covariance: np.ndarray, dt: float,
+                           sigmas) -> np.ndarray:
+    """R (6, 6) = diag(sigmas)^2 + G C G^T with G = [I3; I3 / dt] (module docstring)."""
+    g = np.vstack([np.eye(3), np.eye(3) / dt])
+    return np.diag(np.square(np.asarray(sigmas, float))) + g @ correction_covariance @ g.T

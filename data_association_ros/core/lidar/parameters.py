@@ -1,0 +1,147 @@
+"""The LiDAR object tracker's parameters: defaults, ranges, meanings (shared by the core, the node
+and the evaluation tool; no ROS)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+from ..associators import REGISTRY
+from ..errors import InvalidInputError
+from ..parameters import ParameterSpec
+from .alignment import TRANSFORMS
+from .fine import FINE_METHODS, JNIS_COORDINATES
+
+COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A string parameter with its valid values."""
+
+    name: str
+    default: str
+    description: str
+    choices: tuple[str, ...]
+
+    def check(self, value: Any) -> str:
+        """The value, or InvalidInputError listing the valid ones."""
+        if value not in self.choices:
+            raise InvalidInputError(f'{self.name}: {value!r} is not one of '
+                                    f'{", ".join(self.choices)}')
+        return value
+
+    def range_text(self) -> str:
+        """The valid values for docs."""
+        return ', '.join(self.choices)
+
+
+def _float(name, default, description, low=0.0, high=None, low_open=True):
+    return ParameterSpec(name, default, description, low=low, high=high, low_open=low_open)
+
+
+def _int(name, default, description, low, high):
+    return ParameterSpec(name, default, description, kind=int, low=low, high=high)
+
+
+PARAMETERS = (
+    _float('cluster_gap', 0.3, 'consecutive scan points closer than this [m] form one cluster'),
+    _int('min_cluster_points', 3, 'clusters with fewer points are ignored', 1, 100000),
+    _float('edge_jump', 0.3, 'a cluster end is an object edge when the next return is missing '
+           'or farther by more than this [m]'),
+    Choice('coarse', 'gnn', 'coarse association of clusters with tracks (an associator of this '
+           'package on point_map)', COARSE_METHODS),
+    _float('coarse_sigma', 0.5, 'std of a cluster centroid about its predicted position [m]'),
+    Choice('fine', 'jcbb_points', "fine association of scan points with boundary points "
+           "(nearest: the seed's rejected nearest pairing with nearest_cutoff)", FINE_METHODS),
+    Choice('jnis', 'cartesian', 'coordinates of the fine jNIS: cartesian (x, y) or polar '
+           '(range, bearing)', JNIS_COORDINATES),
+    Choice('transform', 'point_to_line', 'correction from the pairs: point_to_line (face lines '
+           "+ edge corners), kabsch or ransac (the seed's)", TRANSFORMS),
+    _float('point_sigma', 0.05, 'std of a scan point and of a boundary point [m]'),
+    _float('bearing_sigma', 0.01, 'polar jnis: bearing std [rad]'),
+    _float('nearest_cutoff', 0.3, 'fine nearest: largest pair distance [m]'),
+    ParameterSpec('gate_probability', 0.99, 'chi-square gate of the coarse and fine '
+                  'associations', low=0.0, high=1.0, low_open=True, high_open=True),
+    _float('time_budget_ms', 0.0, 'JCBB search time budget per track and scan [ms] (0: none; '
+           'results then depend on the machine)', low_open=False),
+    _int('max_nodes', 500, 'JCBB search budget per track and scan in search nodes (0: none)',
+         0, 10 ** 9),
+    _int('max_match_points', 20, 'scan points of a track matched per scan (evenly spaced)', 3,
+         100000),
+    _int('min_pairs', 5, 'a track is corrected only from at least this many point pairs', 3,
+         100000),
+    _float('boundary_spacing', 0.1, 'spacing of the boundary points along the rectangle [m]'),
+    _int('max_boundary_points', 50, 'at most about this many boundary points (the spacing '
+         'widens for large objects)', 4, 100000),
+    _float('prior_length', 4.5, 'assumed length of an object whose length is not seen [m]'),
+    _float('prior_width', 1.8, 'assumed width of an object whose width is not seen [m]'),
+    _float('ransac_threshold', 0.1, 'transform ransac: inlier distance [m]'),
+    _float('accel_sigma', 4.0, 'process noise: white acceleration [m/s^2/sqrt(Hz)]'),
+    _float('yaw_accel_sigma', 4.0, 'process noise: white angular acceleration '
+           '[rad/s^2/sqrt(Hz)]'),
+    ParameterSpec('velocity_measurement', False, "the fictitious measurement includes the "
+                  "velocity and yaw rate (the seed's); false: only x, y, yaw (the filter "
+                  'differentiates)', kind=bool),
+    _float('position_sigma', 0.02, 'measurement noise floor on x, y [m]'),
+    _float('yaw_sigma', 0.01, 'measurement noise floor on yaw [rad]'),
+    _float('velocity_sigma', 0.5, 'measurement noise floor on vx, vy [m/s]'),
+    _float('yaw_rate_sigma', 0.5, 'measurement noise floor on the yaw rate [rad/s]'),
+    _float('max_age', 1.0, 'a track not updated for longer than this is dropped [s]',
+           low_open=False),
+    _int('min_hits', 3, 'a track is reported once updated on this many scans', 1, 100000),
+)
+BY_NAME = {p.name: p for p in PARAMETERS}
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """Checked values of PARAMETERS (field names = parameter names)."""
+
+    cluster_gap: float = 0.3
+    min_cluster_points: int = 3
+    edge_jump: float = 0.3
+    coarse: str = 'gnn'
+    coarse_sigma: float = 0.5
+    fine: str = 'jcbb_points'
+    jnis: str = 'cartesian'
+    transform: str = 'point_to_line'
+    point_sigma: float = 0.05
+    bearing_sigma: float = 0.01
+    nearest_cutoff: float = 0.3
+    gate_probability: float = 0.99
+    time_budget_ms: float = 0.0
+    max_nodes: int = 500
+    max_match_points: int = 20
+    min_pairs: int = 5
+    boundary_spacing: float = 0.1
+    max_boundary_points: int = 50
+    prior_length: float = 4.5
+    prior_width: float = 1.8
+    ransac_threshold: float = 0.1
+    accel_sigma: float = 4.0
+    yaw_accel_sigma: float = 4.0
+    velocity_measurement: bool = False
+    position_sigma: float = 0.02
+    yaw_sigma: float = 0.01
+    velocity_sigma: float = 0.5
+    yaw_rate_sigma: float = 0.5
+    max_age: float = 1.0
+    min_hits: int = 3
+
+    def __post_init__(self) -> None:
+        for field in fields(self):
+            object.__setattr__(self, field.name,
+                               BY_NAME[field.name].check(getattr(self, field.name)))
+
+    def with_values(self, **values: Any) -> 'TrackerConfig':
+        """A checked copy with `values` replaced (InvalidInputError names a bad one)."""
+        unknown = sorted(set(values) - set(BY_NAME))
+        if unknown:
+            raise InvalidInputError(f'{unknown[0]}: not a LiDAR tracker parameter')
+        return replace(self, **values)
+
+    def measurement_sigmas(self) -> tuple[float, ...]:
+        """Floor of R's standard deviations for [x, y, yaw, vx, vy, yaw_rate]."""
+        return (self.position_sigma, self.position_sigma, self.yaw_sigma, self.velocity_sigma,
+                self.velocity_sigma, self.yaw_rate_sigma)
+
