@@ -12,14 +12,18 @@ var_bearing] or x, y [+ cov_xx, cov_xy, cov_yy]):
    update; then initialise landmarks: from `new_landmarks` (`node`: one landmark per candidate,
    from its confirming observation of this scan, at the updated pose) or from the truth ids not
    yet in the map (`ground_truth`, which keeps the true ids); publish `slam_pose` and `slam_map`.
-Answers and new_landmarks may arrive in either order; ones for other scans are counted and
-dropped (a landmark whose scan has passed is initialised from its fused map-frame estimate,
-uncorrelated with the state, and counted as `late_new_landmarks`).
+Answers and new_landmarks may arrive in either order, and before their scan is processed
+(kept, at most MAX_EARLY); ones for scans already done are counted and dropped (a landmark whose
+scan has passed is initialised from its fused map-frame estimate, uncorrelated with the state,
+and counted as `late_new_landmarks`).  Scans wait in stamp order; a scan not newer than the last
+one processed, and odometry older than what the filter has used, are counted and dropped.
+Values beyond MAX_MAGNITUDE are rejected (fusing them would overflow the state).
 """
 from __future__ import annotations
 
+import bisect
 import time
-from collections import Counter, deque
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
@@ -31,6 +35,7 @@ from msg_adapters import (PointCloudFormatError, cloud_to_array, covariance_mess
                           point_map_cloud, pose_from_odometry)
 
 from .core import InvalidInputError, Observations
+from .core.validation import check_covariance_matrix
 from .core.parameters import ParameterSpec
 from .core.slam import EkfSlam, OdometryIncrements
 from .node_parameters import BY_NAME, NodeParameter
@@ -68,6 +73,18 @@ SLAM_PARAMETERS = (
                   spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
 )
 SLAM_BY_NAME = {p.name: p for p in SLAM_PARAMETERS}
+MAX_EARLY = 100
+"""Answers / new_landmarks kept for scans not processed yet (beyond: the furthest dropped)."""
+MAX_MAGNITUDE = 1e6
+"""Largest |value| accepted in positions [m], ranges [m] and (co)variances: beyond it a value
+is a fault, and fusing it would overflow the filter's state."""
+
+
+def check_magnitude(values: np.ndarray, field: str) -> None:
+    """InvalidInputError when any |value| exceeds MAX_MAGNITUDE (or is not finite)."""
+    values = np.asarray(values, dtype=float)
+    if values.size and not np.all(np.abs(values) <= MAX_MAGNITUDE):
+        raise InvalidInputError(f'{field}: values beyond {MAX_MAGNITUDE:g} or not finite')
 
 
 @dataclass
@@ -113,9 +130,9 @@ class SlamPipeline:
         self.statistics = SlamStatistics()
         self.slam: Optional[EkfSlam] = None
         self.odometry = OdometryIncrements()
-        self.odometry_queue: deque = deque()      # (stamp, RobotPose) not yet consumed
-        self.latest_odometry_stamp: Optional[int] = None
-        self.pending_scans: deque = deque()
+        self.odometry_queue: list = []       # (stamp, RobotPose) not yet consumed, by stamp
+        self.consumed_until: Optional[int] = None   # odometry up to here is in the filter
+        self.pending_scans: list = []        # (stamp, msg) waiting for odometry, by stamp
         self.current: Optional[CurrentScan] = None
         self.early_answers: dict[int, Any] = {}   # answers of a scan not processed yet
         self.early_new: dict[int, Any] = {}       # new_landmarks waiting for their scan's update
@@ -128,21 +145,24 @@ class SlamPipeline:
         """nav_msgs/Odometry: pose in the odometry frame, covariance of the increment since the
         previous message."""
         try:
-            pose = pose_from_odometry(msg)
-            if not (np.all(np.isfinite(pose.mean)) and np.all(np.isfinite(pose.covariance))):
-                raise InvalidInputError('odometry: pose or covariance not finite')
+            pose = pose_from_odometry(msg)   # finite, covariance symmetric PSD (RobotPose)
+            check_magnitude(pose.mean[:2], 'odometry.pose.position')
+            check_magnitude(pose.covariance, 'odometry.pose.covariance')
         except INPUT_ERRORS as error:
             return self._invalid('odometry', error)
         stamp = stamp_ns(msg.header)
-        if self.latest_odometry_stamp is not None and stamp <= self.latest_odometry_stamp:
-            return self._drop('odometry_out_of_order', 'odometry older than the last one')
-        self.latest_odometry_stamp = stamp
-        self.odometry_queue.append((stamp, pose))
+        if self.consumed_until is not None and stamp <= self.consumed_until:
+            return self._drop('odometry_too_old', 'odometry older than a scan already done')
+        bisect.insort(self.odometry_queue, (stamp, pose), key=lambda item: item[0])
         return self._release_scans()
 
     def on_scan(self, msg) -> Outputs:
-        """A sensor_observations PointCloud2; processed once its odometry is there."""
-        self.pending_scans.append(msg)
+        """A sensor_observations PointCloud2; processed once its odometry is there (scans
+        wait in stamp order)."""
+        stamp = stamp_ns(msg.header)
+        if self.current is not None and stamp <= self.current.stamp:
+            return self._drop('scan_out_of_order', 'scan not newer than the last one')
+        bisect.insort(self.pending_scans, (stamp, msg), key=lambda item: item[0])
         return self._release_scans()
 
     def on_correspondences(self, msg) -> Outputs:
@@ -162,8 +182,7 @@ class SlamPipeline:
         if current is not None and stamp == current.stamp and current.updated:
             return self._add_new_landmarks(msg) + self._estimate_messages()
         if current is None or stamp >= current.stamp:
-            self.early_new[stamp] = msg
-            return []
+            return self._keep_early(self.early_new, stamp, msg)
         return self._add_new_landmarks(msg, late=True) + self._estimate_messages()
 
     # -- work ---------------------------------------------------------------------------
@@ -171,15 +190,14 @@ class SlamPipeline:
         out: Outputs = []
         tolerance = int(self.config['odometry_tolerance'] * NS_PER_S)
         while self.pending_scans:
-            stamp = stamp_ns(self.pending_scans[0].header)
-            ready = self.latest_odometry_stamp is not None and \
-                self.latest_odometry_stamp >= stamp - tolerance
+            stamp = self.pending_scans[0][0]
+            ready = bool(self.odometry_queue) and self.odometry_queue[-1][0] >= stamp - tolerance
             if not ready and len(self.pending_scans) <= self.config['max_pending_scans']:
                 break
             if not ready:
                 self._drop('scan_without_odometry', 'scan processed without odometry up to '
                            'its stamp')
-            out += self._process_scan(self.pending_scans.popleft(), stamp + tolerance)
+            out += self._process_scan(self.pending_scans.pop(0)[1], stamp + tolerance)
         return out
 
     def _process_scan(self, msg, odometry_until: int) -> Outputs:
@@ -193,14 +211,17 @@ class SlamPipeline:
                                         'frame point model (range_bearing, point_robot)')
             observations = observations_from_points(points, model,
                                                     self.config['observation_noise'])
+            check_magnitude(observations.values, 'sensor_observations')
+            check_magnitude(observations.covariances, 'sensor_observations covariance')
             if self.slam is not None and self.slam.model.name != model:
                 raise InvalidInputError(f'sensor_observations: model {model} after '
                                         f'{self.slam.model.name}')
         except INPUT_ERRORS as error:
             return self._invalid('sensor_observations', error)
         while self.odometry_queue and self.odometry_queue[0][0] <= odometry_until:
-            _, pose = self.odometry_queue.popleft()
+            _, pose = self.odometry_queue.pop(0)
             self.odometry.add(pose.mean, pose.covariance)
+        self.consumed_until = odometry_until
         if self.slam is None:
             self.slam = self._start(model)
         increment, noise = self.odometry.take()
@@ -241,9 +262,16 @@ class SlamPipeline:
         if current is not None and stamp == current.stamp and not current.updated:
             return self._apply_answer(msg)
         if current is None or stamp > current.stamp:
-            self.early_answers[stamp] = msg
-            return []
+            return self._keep_early(self.early_answers, stamp, msg)
         return self._drop('stale_answer', 'answer for a scan already done')
+
+    def _keep_early(self, store: dict, stamp: int, msg) -> Outputs:
+        """Keep a message for a scan not processed yet (at most MAX_EARLY, the newest)."""
+        store[stamp] = msg
+        if len(store) > MAX_EARLY:
+            del store[max(store)]
+            self.statistics.dropped['too_many_early'] += 1
+        return []
 
     def _apply_answer(self, msg) -> Outputs:
         current = self.current
@@ -324,7 +352,12 @@ class SlamPipeline:
         mean = np.array([point['x'], point['y']], dtype=float)
         cov = np.array([[point['cov_xx'], point['cov_xy']], [point['cov_xy'], point['cov_yy']]],
                        dtype=float)
-        if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+        try:
+            check_magnitude(mean, 'new_landmarks.x, y')
+            check_magnitude(cov, 'new_landmarks covariance')
+            check_covariance_matrix(cov, 'new_landmarks covariance')
+        except InvalidInputError as error:
+            self._invalid('new_landmarks', error)
             return
         size = len(slam.mean)
         grown = np.zeros((size + 2, size + 2))

@@ -1,4 +1,5 @@
-"""Rewrite config/association.yaml and the README's parameter table from NODE_PARAMETERS.
+"""Rewrite config/association.yaml and the README's parameter tables from the declarations
+(association_node: NODE_PARAMETERS; ekf_slam_node: SLAM_PARAMETERS).
 
 Run after changing a parameter: python scripts/update_parameter_docs.py (the tests check that
 both files match the declarations).
@@ -9,9 +10,11 @@ import pathlib
 import re
 
 from data_association_ros.node_parameters import NODE_PARAMETERS
+from data_association_ros.slam_pipeline import SLAM_PARAMETERS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 BEGIN, END = '<!-- parameters:begin -->', '<!-- parameters:end -->'
+SLAM_BEGIN, SLAM_END = '<!-- slam-parameters:begin -->', '<!-- slam-parameters:end -->'
 
 
 def yaml_value(value) -> str:
@@ -36,9 +39,9 @@ def config_text() -> str:
     return '\n'.join(lines) + '\n'
 
 
-def readme_table() -> str:
+def readme_table(parameters=NODE_PARAMETERS) -> str:
     rows = ['| parameter | default | valid | run-time | meaning |', '|---|---|---|---|---|']
-    for p in NODE_PARAMETERS:
+    for p in parameters:
         rows.append(f'| `{p.name}` | `{yaml_value(p.default)}` | {p.range_text()} | '
                     f'{"no (read-only)" if p.read_only else "yes"} | {p.description} |')
     return '\n'.join(rows)
@@ -47,8 +50,10 @@ def readme_table() -> str:
 def main() -> None:
     (ROOT / 'config' / 'association.yaml').write_text(config_text())
     readme = (ROOT / 'README.md').read_text()
-    pattern = re.compile(re.escape(BEGIN) + '.*?' + re.escape(END), re.S)
-    readme = pattern.sub(lambda _: f'{BEGIN}\n{readme_table()}\n{END}', readme)
+    for begin, end, parameters in ((BEGIN, END, NODE_PARAMETERS),
+                                   (SLAM_BEGIN, SLAM_END, SLAM_PARAMETERS)):
+        pattern = re.compile(re.escape(begin) + '.*?' + re.escape(end), re.S)
+        readme = pattern.sub(lambda _: f'{begin}\n{readme_table(parameters)}\n{end}', readme)
     (ROOT / 'README.md').write_text(readme)
 
 

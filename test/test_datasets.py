@@ -400,3 +400,21 @@ def test_victoria_park_increments_reproduce_odometry(sequences):
     assert spans[k] > 3
     assert np.allclose(sequence.steps[k].increment_covariance, jacobian @ noise @ jacobian.T,
                        rtol=1e-5, atol=1e-12)
+
+
+@pytest.mark.parametrize('name', sorted(SEQUENCES))
+def test_committed_bag_carries_the_sequence_truth(sequences, name):
+    """The committed bag's /ground_truth/correspondences hold every step's labels and
+    certainty (so its counts are the source files' counts checked above)."""
+    from data_association_ros.bag.slam_eval import read_slam_truth
+    sequence = sequences(name)
+    truth = read_slam_truth(Path(__file__).resolve().parents[1] / 'bags' / name)
+    assert len(truth.labels) == len(sequence.steps)
+    stamps = sorted(truth.labels)
+    assert stamps == [step.time_ns for step in sequence.steps]
+    np.testing.assert_array_equal(np.concatenate([truth.labels[s] for s in stamps]),
+                                  flat(sequence, 'truth'))
+    np.testing.assert_array_equal(np.concatenate([truth.certain[s] for s in stamps]),
+                                  flat(sequence, 'truth_certain'))
+    assert len(truth.poses) == sum(step.true_pose is not None for step in sequence.steps)
+    assert set(truth.landmarks) == set(sequence.true_landmarks or {})

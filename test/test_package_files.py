@@ -34,7 +34,9 @@ def test_generated_parameter_docs_are_current():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     assert (ROOT / 'config' / 'association.yaml').read_text() == module.config_text()
-    assert module.readme_table() in (ROOT / 'README.md').read_text()
+    readme = (ROOT / 'README.md').read_text()
+    assert module.readme_table() in readme
+    assert module.readme_table(module.SLAM_PARAMETERS) in readme   # ekf_slam_node
 
 
 def test_package_xml_and_setup_cfg():

@@ -37,10 +37,19 @@ def ros_arguments(values: Mapping[str, Any],
         if isinstance(default, bool):
             text = 'true' if value else 'false'
         elif isinstance(default, float):
-            text = repr(float(value))
+            text = float_text(value)
         elif isinstance(default, list):
-            text = '[' + ', '.join(repr(float(v)) for v in value) + ']'
+            text = '[' + ', '.join(float_text(v) for v in value) + ']'
         else:
             text = str(value)
         arguments += ['-p', f'{name}:={text}']
     return arguments
+
+
+def float_text(value: float) -> str:
+    """A float as YAML reads it back as a float: 1e-09 (a string to YAML 1.1) -> 1.0e-09."""
+    text = repr(float(value))
+    mantissa, _, exponent = text.partition('e')
+    if exponent and '.' not in mantissa:
+        text = f'{mantissa}.0e{exponent}'
+    return text

@@ -6,11 +6,15 @@ Per scan and observation with certain truth t and answer a:
 - a pairing (a >= 0) is correct when identity(a) == t >= 0;  recall's denominator counts the
   observations whose true landmark was in the map before the scan;
 - a NEW answer is false when its landmark was already in the map (a NEW clutter return is
-  right: nothing explains it; M-of-N confirmation keeps it out of the map, see `false`).
+  right: nothing explains it; M-of-N confirmation keeps it out of the map, see `false`);
+- correct / wrong / missed [% of the observations], as the TTK4250 harness counts: correct =
+  paired with its landmark, or not paired when its landmark is not in the map (clutter
+  included); wrong = paired with another landmark; missed = not paired although its landmark is
+  in the map.
 Map: landmarks with a true identity seen first (right), again (duplicates), of clutter or
 unknown origin (false); true landmarks observed but never mapped (missed).  With true landmark
 positions: RMSE after the least-squares rigid alignment (Kabsch) of the right landmarks.  With
-true poses: RMSE of the posterior position (same frame: the runs start at the true pose).
+true poses: RMSE of the posterior positions after the rigid alignment of the trajectory.
 """
 from __future__ import annotations
 
@@ -62,6 +66,7 @@ def score_run(run: SlamRun, truth: SlamTruth,
         if label >= 0:
             first_of.setdefault(label, stamp)
     paired = correct = in_map = new_false = clutter_paired = answered = observations = 0
+    right_unpaired = missed = 0
     for stamp in sorted(truth.labels):
         labels, certain = truth.labels[stamp], truth.certain[stamp]
         observations += int(certain.sum())
@@ -79,6 +84,9 @@ def score_run(run: SlamRun, truth: SlamTruth,
         in_map += int((mapped & certain).sum())
         new_false += int(((answer == NEW) & certain & mapped).sum())
         clutter_paired += int((is_pair & (labels == CLUTTER)).sum())
+        unpaired = (answer < 0) & certain
+        right_unpaired += int((unpaired & ~mapped).sum())
+        missed += int((unpaired & mapped).sum())
     observed = {int(label) for stamp in truth.labels
                 for label, sure in zip(truth.labels[stamp], truth.certain[stamp])
                 if sure and label >= 0}
@@ -90,6 +98,9 @@ def score_run(run: SlamRun, truth: SlamTruth,
         'pair_precision': correct / paired if paired else float('nan'),
         'pair_recall': correct / in_map if in_map else float('nan'),
         'new_false': new_false, 'clutter_paired': clutter_paired,
+        'correct_percent': percent(correct + right_unpaired, observations),
+        'wrong_percent': percent(paired - correct, observations),
+        'missed_percent': percent(missed, observations),
         'answered': answered, 'scans': len(truth.labels),
         'landmarks': len(ids), 'landmarks_true': len(observed),
         'landmarks_right': right,
@@ -101,6 +112,11 @@ def score_run(run: SlamRun, truth: SlamTruth,
         'time_median_ms': float(np.median(times)) if times.size else float('nan'),
         'time_p95_ms': float(np.percentile(times, 95)) if times.size else float('nan'),
     }
+
+
+def percent(count: int, total: int) -> float:
+    """100 count / total (NaN when total is 0)."""
+    return 100.0 * count / total if total else float('nan')
 
 
 def map_rmse(final_map: Optional[np.ndarray], ids: dict[int, tuple[int, int]],
@@ -126,9 +142,13 @@ def map_rmse(final_map: Optional[np.ndarray], ids: dict[int, tuple[int, int]],
 
 
 def pose_rmse(poses: dict[int, np.ndarray], true_poses: dict[int, np.ndarray]) -> float:
-    """RMSE [m] of the posterior robot position over the scans with a true pose."""
-    common = [s for s in poses if s in true_poses]
-    if not common:
+    """RMSE [m] of the posterior robot positions over the scans with a true pose, after the
+    least-squares rigid alignment of the whole trajectory (the absolute trajectory error: the
+    map's anchor, fixed by the first landmarks' initialisation, is not observable)."""
+    common = sorted(s for s in poses if s in true_poses)
+    if len(common) < 3:
         return float('nan')
-    error = np.array([poses[s][:2] - true_poses[s][:2] for s in common])
-    return float(np.sqrt(np.mean(np.sum(error ** 2, axis=1))))
+    estimated = np.array([poses[s][:2] for s in common])
+    true = np.array([true_poses[s][:2] for s in common])
+    residual = estimate_rigid_transform(estimated, true).apply(estimated) - true
+    return float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1))))

@@ -15,7 +15,8 @@ import numpy as np
 from .errors import InvalidInputError
 from .models import MODELS, MeasurementModel
 from .types import Landmarks, Observations, RobotPose
-from .validation import as_float_array, check_covariance_matrix, check_shape
+from .validation import (as_float_array, check_covariance_matrix, check_shape,
+                         is_checked_covariance)
 
 
 def symmetric_quadratic_form(vectors: np.ndarray, matrices: np.ndarray) -> np.ndarray:
@@ -74,7 +75,8 @@ class AssociationProblem:
         self.state_covariance = None
         if state_covariance is not None:
             size = 3 + len(landmarks) * landmarks.dim
-            matrix = as_float_array(state_covariance, 'state_covariance', 2)
+            matrix = state_covariance if is_checked_covariance(state_covariance) else \
+                as_float_array(state_covariance, 'state_covariance', 2)
             check_shape(matrix, 'state_covariance', (size, size))
             self.state_covariance = check_covariance_matrix(matrix, 'state_covariance')
 

@@ -1,6 +1,8 @@
 """Checks shared by the core types: finiteness, shapes, symmetric positive-definite matrices."""
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from .errors import InvalidInputError
@@ -50,9 +52,23 @@ def check_spd(matrices: np.ndarray, field: str) -> None:
             f'{field}[{bad[0]}]: not positive definite (smallest eigenvalue {smallest[bad[0]]:.3g})')
 
 
+_CHECKED: 'weakref.WeakValueDictionary[int, np.ndarray]' = weakref.WeakValueDictionary()
+"""Matrices check_covariance_matrix returned (read-only), so a second check is free."""
+
+
+def is_checked_covariance(value) -> bool:
+    """True for a matrix check_covariance_matrix returned (it is read-only, so still valid)."""
+    return isinstance(value, np.ndarray) and _CHECKED.get(id(value)) is value \
+        and not value.flags.writeable
+
+
 def check_covariance_matrix(value, field: str) -> np.ndarray:
-    """A finite, symmetric, positive semi-definite square matrix (float64); eigenvalues down to
-    -1e-9 x (1 + max |entry|) are accepted, tested by Cholesky of the matrix plus twice that."""
+    """A finite, symmetric, positive semi-definite square matrix (float64, read-only); eigenvalues
+    down to -1e-9 x (1 + max |entry|) are accepted, tested by Cholesky of the matrix plus twice
+    that.  A matrix this returned before passes at once (a large joint covariance is checked
+    once on arrival, not again by every associate() call)."""
+    if is_checked_covariance(value):
+        return value
     matrix = as_float_array(value, field, 2)
     check_shape(matrix, field, (matrix.shape[0], matrix.shape[0]))
     scale = 1.0 + np.abs(matrix).max(initial=0.0)
@@ -63,4 +79,6 @@ def check_covariance_matrix(value, field: str) -> np.ndarray:
             np.linalg.cholesky(matrix + 2e-9 * scale * np.eye(len(matrix)))
         except np.linalg.LinAlgError:
             raise InvalidInputError(f'{field}: not positive semi-definite') from None
+    matrix.flags.writeable = False
+    _CHECKED[id(matrix)] = matrix
     return matrix
