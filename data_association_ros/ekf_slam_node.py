@@ -14,7 +14,7 @@ from typing import Optional
 
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Float64MultiArray
 
@@ -36,18 +36,20 @@ class EkfSlamNode(ParameterizedNode):
         super().__init__('ekf_slam_node', SLAM_PARAMETERS, **kwargs)
         self.pipeline = SlamPipeline(self.config, warn=self.get_logger().warning)
         qos = QoSProfile(depth=QOS_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
+        sensor_qos = qos_profile_sensor_data if self.config['input_qos'] == 'sensor_data' \
+            else qos
         self.publishers_by_topic = {topic: self.create_publisher(kind, topic, qos)
                                     for topic, kind in OUTPUT_TYPES.items()}
         pipeline = self.pipeline
         # Creation order = service order when several wait together: new landmarks before the
         # answer of the same scan, odometry before the scan.
-        for kind, topic, handler in (
-                (PointCloud2, 'new_landmarks', pipeline.on_new_landmarks),
-                (PointCloud2, 'correspondences', pipeline.on_correspondences),
-                (PointCloud2, 'ground_truth/correspondences', pipeline.on_ground_truth),
-                (Odometry, 'odometry', pipeline.on_odometry),
-                (PointCloud2, 'sensor_observations', pipeline.on_scan)):
-            self.create_subscription(kind, topic, self._publishing(handler), qos)
+        for kind, topic, handler, profile in (
+                (PointCloud2, 'new_landmarks', pipeline.on_new_landmarks, qos),
+                (PointCloud2, 'correspondences', pipeline.on_correspondences, qos),
+                (PointCloud2, 'ground_truth/correspondences', pipeline.on_ground_truth, qos),
+                (Odometry, 'odometry', pipeline.on_odometry, sensor_qos),
+                (PointCloud2, 'sensor_observations', pipeline.on_scan, sensor_qos)):
+            self.create_subscription(kind, topic, self._publishing(handler), profile)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.create_timer(1.0, self.publish_diagnostics)
         self.get_logger().info('ekf_slam_node ready: association_source '
@@ -55,7 +57,14 @@ class EkfSlamNode(ParameterizedNode):
 
     def _publishing(self, handler):
         def callback(msg) -> None:
-            for topic, out in handler(msg):
+            try:
+                outputs = handler(msg)
+            except Exception as error:  # never let one message take the node down
+                self.pipeline.statistics.invalid['internal_error'] += 1
+                self.get_logger().error(f'message dropped by an internal error: {error!r}',
+                                        throttle_duration_sec=5.0)
+                return
+            for topic, out in outputs:
                 self.publishers_by_topic[topic].publish(out)
         return callback
 

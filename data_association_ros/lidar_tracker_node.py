@@ -94,6 +94,11 @@ class LidarTrackerNode(ParameterizedNode):
             self.get_logger().warning(f'scan dropped ({self.invalid} so far): {error}',
                                       throttle_duration_sec=5.0)
             return
+        except Exception as error:  # never let one scan take the node down
+            self.invalid += 1
+            self.get_logger().error(f'scan dropped by an internal error ({self.invalid} so '
+                                    f'far): {error!r}', throttle_duration_sec=5.0)
+            return
         spacing, most = self.tracker.config.boundary_spacing, \
             self.tracker.config.max_boundary_points
         self.tracks_pub.publish(tracks_cloud(header, tracks, stamp))

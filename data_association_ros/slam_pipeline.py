@@ -16,7 +16,8 @@ Answers and new_landmarks may arrive in either order, and before their scan is p
 (kept, at most MAX_EARLY); ones for scans already done are counted and dropped (a landmark whose
 scan has passed is initialised from its fused map-frame estimate, uncorrelated with the state,
 and counted as `late_new_landmarks`).  Scans wait in stamp order; a scan not newer than the last
-one processed, and odometry older than what the filter has used, are counted and dropped.
+one processed, and odometry older than what the filter has used, are counted and dropped; a
+scan more than 1 s older than the last restarts the filter (a bag played again).
 Values beyond MAX_MAGNITUDE are rejected (fusing them would overflow the state).
 """
 from __future__ import annotations
@@ -37,13 +38,15 @@ from msg_adapters import (PointCloudFormatError, cloud_to_array, covariance_mess
 from .core import InvalidInputError, Observations
 from .core.validation import check_covariance_matrix
 from .core.parameters import ParameterSpec
+from .core.models import MODELS
 from .core.slam import EkfSlam, OdometryIncrements
 from .node_parameters import BY_NAME, NodeParameter
 from .pipeline import NS_PER_S, stamp_ns
 
 INPUT_ERRORS = (InvalidInputError, PointCloudFormatError, ValueError)
 MAP_FRAME = 'map'
-ORIGIN_FIELDS = ('origin_stamp_sec', 'origin_stamp_nanosec', 'origin_observation')
+NEW_LANDMARK_FIELDS = ('observation', 'candidate', 'stamp_sec', 'stamp_nanosec', 'x', 'y',
+                       'cov_xx', 'cov_xy', 'cov_yy')
 SLAM_PARAMETERS = (
     NodeParameter('association_source', 'node', 'node: fuse the association node\'s answers '
                   '(closed loop); ground_truth: fuse the bag\'s true association (oracle)',
@@ -71,10 +74,18 @@ SLAM_PARAMETERS = (
     NodeParameter('min_motion_variance', 1e-9, 'added to the diagonal of every odometry '
                   'increment covariance [m^2, rad^2]',
                   spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
+    NodeParameter('input_qos', 'reliable', 'QoS of the odometry and sensor_observations '
+                  'subscriptions: reliable or sensor_data (best effort, as many drivers '
+                  'publish)', choices=('reliable', 'sensor_data'), read_only=True),
 )
 SLAM_BY_NAME = {p.name: p for p in SLAM_PARAMETERS}
 MAX_EARLY = 100
 """Answers / new_landmarks kept for scans not processed yet (beyond: the furthest dropped)."""
+MAX_ODOMETRY_QUEUE = 10_000
+"""Odometry messages kept waiting for a scan; beyond, the oldest are composed into the motion
+(a dead sensor does not grow memory)."""
+RESTART_AFTER_NS = NS_PER_S
+"""A scan this much older than the last one restarts the filter (a bag played again)."""
 MAX_MAGNITUDE = 1e6
 """Largest |value| accepted in positions [m], ranges [m] and (co)variances: beyond it a value
 is a fault, and fusing it would overflow the filter's state."""
@@ -138,6 +149,7 @@ class SlamPipeline:
         self.early_new: dict[int, Any] = {}       # new_landmarks waiting for their scan's update
         self.origins: dict[int, tuple[int, int]] = {}   # landmark id -> (stamp, observation)
         self.next_id = 0
+        self.added_for: set[int] = set()   # scan stamps whose new landmarks were added
         self._last_warning: dict[str, float] = {}
 
     # -- inputs -------------------------------------------------------------------------
@@ -154,16 +166,33 @@ class SlamPipeline:
         if self.consumed_until is not None and stamp <= self.consumed_until:
             return self._drop('odometry_too_old', 'odometry older than a scan already done')
         bisect.insort(self.odometry_queue, (stamp, pose), key=lambda item: item[0])
+        if len(self.odometry_queue) > MAX_ODOMETRY_QUEUE:   # no scans: keep the motion only
+            old_stamp, old_pose = self.odometry_queue.pop(0)
+            self.odometry.add(old_pose.mean, old_pose.covariance)
+            self.consumed_until = old_stamp
+            self.statistics.dropped['odometry_folded_without_scan'] += 1
         return self._release_scans()
 
     def on_scan(self, msg) -> Outputs:
         """A sensor_observations PointCloud2; processed once its odometry is there (scans
         wait in stamp order)."""
         stamp = stamp_ns(msg.header)
-        if self.current is not None and stamp <= self.current.stamp:
+        if self.current is not None and stamp < self.current.stamp - RESTART_AFTER_NS:
+            self._restart(f'scan {(self.current.stamp - stamp) / NS_PER_S:.2f} s older than '
+                          'the last one (a bag played again?)')
+        if (self.current is not None and stamp <= self.current.stamp) or \
+                any(stamp == pending for pending, _ in self.pending_scans):
             return self._drop('scan_out_of_order', 'scan not newer than the last one')
         bisect.insort(self.pending_scans, (stamp, msg), key=lambda item: item[0])
         return self._release_scans()
+
+    def _restart(self, why: str) -> None:
+        """Start over: a new filter at the initial pose, nothing pending (counted)."""
+        statistics, warn = self.statistics, self.warn
+        self.__init__(self.config, warn)
+        self.statistics = statistics
+        statistics.dropped['restarts'] += 1
+        warn(f'ekf_slam_node restarted: {why}')
 
     def on_correspondences(self, msg) -> Outputs:
         """The association node's answer (used when association_source is `node`)."""
@@ -214,8 +243,10 @@ class SlamPipeline:
             check_magnitude(observations.values, 'sensor_observations')
             check_magnitude(observations.covariances, 'sensor_observations covariance')
             if self.slam is not None and self.slam.model.name != model:
-                raise InvalidInputError(f'sensor_observations: model {model} after '
-                                        f'{self.slam.model.name}')
+                if len(self.slam):
+                    raise InvalidInputError(f'sensor_observations: model {model} after '
+                                            f'{self.slam.model.name} (the map uses it)')
+                self.slam.model = MODELS[model]   # an empty map takes the new model
         except INPUT_ERRORS as error:
             return self._invalid('sensor_observations', error)
         while self.odometry_queue and self.odometry_queue[0][0] <= odometry_until:
@@ -295,8 +326,8 @@ class SlamPipeline:
         values, covariances = current.observations.values, current.observations.covariances
         try:
             slam.update(values[use], covariances[use], assignment[use])
-        except (np.linalg.LinAlgError, InvalidInputError) as error:
-            return self._invalid('update', error)
+        except (np.linalg.LinAlgError, InvalidInputError, ValueError) as error:
+            return self._invalid('update', error)   # e.g. S not positive definite
         self.statistics.updates += 1
         self.statistics.fused_observations += len(use)
         current.updated = True
@@ -320,23 +351,33 @@ class SlamPipeline:
 
     def _add_new_landmarks(self, msg, late: bool = False) -> Outputs:
         """One landmark per candidate of a new_landmarks message, from its observation in the
-        current scan (at the updated pose), else from its fused map-frame estimate."""
+        current scan (at the updated pose), else (late) from its fused map-frame estimate."""
+        current = self.current
         try:
             points = cloud_to_array(msg)
-            stamps = points['stamp_sec'].astype(np.int64) * NS_PER_S + points['stamp_nanosec']
-            candidates = points['candidate']
+            columns = {name: points[name].astype(float) for name in NEW_LANDMARK_FIELDS}
+            for name in ('candidate', 'observation', 'stamp_sec', 'stamp_nanosec'):
+                if not np.all(np.isfinite(columns[name])):
+                    raise InvalidInputError(f'new_landmarks.{name}: not finite')
+            stamps = columns['stamp_sec'].astype(np.int64) * NS_PER_S + \
+                columns['stamp_nanosec'].astype(np.int64)
+            observation = columns['observation'].astype(np.int64)
+            candidates = columns['candidate'].astype(np.int64)
         except (*INPUT_ERRORS, KeyError) as error:
             return self._invalid('new_landmarks', error)
-        current = self.current
+        if not late and current.stamp in self.added_for:
+            return self._drop('repeated_new_landmarks', 'new_landmarks for this scan again')
+        self.added_for.add(current.stamp)
         chosen = []
         for candidate in np.unique(candidates):
-            rows = np.flatnonzero((candidates == candidate) & (stamps == current.stamp))
-            rows = rows[(points['observation'][rows] >= 0) &
-                        (points['observation'][rows] < len(current.observations))]
-            if rows.size and not late:
-                chosen.append(int(points['observation'][rows[-1]]))
+            rows = np.flatnonzero(candidates == candidate)
+            here = rows[(stamps[rows] == current.stamp) & (observation[rows] >= 0) &
+                        (observation[rows] < len(current.observations))]
+            if here.size and not late:
+                chosen.append(int(observation[here[-1]]))
             else:
-                self._add_fused(points[np.flatnonzero(candidates == candidate)[-1]])
+                row = rows[-1]
+                self._add_fused(columns, row, (int(stamps[row]), int(observation[row])))
         chosen = np.unique(np.array(chosen, dtype=np.int64))
         if chosen.size:
             ids = self.next_id + np.arange(chosen.size)
@@ -345,13 +386,14 @@ class SlamPipeline:
             self._add(values, covariances, ids, chosen)
         return []
 
-    def _add_fused(self, point) -> None:
-        """A landmark from a map-frame estimate (x, y, covariance), uncorrelated with the state."""
+    def _add_fused(self, columns: dict, row: int, origin: tuple[int, int]) -> None:
+        """A landmark from its map-frame estimate (x, y, covariance) in `row`, uncorrelated
+        with the state; `origin` = its confirming observation (stamp, index)."""
         self.statistics.dropped['late_new_landmarks'] += 1
         slam = self.slam
-        mean = np.array([point['x'], point['y']], dtype=float)
-        cov = np.array([[point['cov_xx'], point['cov_xy']], [point['cov_xy'], point['cov_yy']]],
-                       dtype=float)
+        mean = np.array([columns['x'][row], columns['y'][row]])
+        cov = np.array([[columns['cov_xx'][row], columns['cov_xy'][row]],
+                        [columns['cov_xy'][row], columns['cov_yy'][row]]])
         try:
             check_magnitude(mean, 'new_landmarks.x, y')
             check_magnitude(cov, 'new_landmarks covariance')
@@ -366,7 +408,7 @@ class SlamPipeline:
         slam.covariance = grown
         slam.mean = np.concatenate([slam.mean, mean])
         slam.ids = np.append(slam.ids, self.next_id)
-        self.origins[self.next_id] = (-1, -1)
+        self.origins[self.next_id] = origin
         self.next_id += 1
 
     def _estimate_messages(self) -> Outputs:

@@ -1,6 +1,6 @@
 """Launch association_node + ekf_slam_node as a closed loop (ros2 launch data_association_ros
 slam.launch.py [algorithm:=jcbb] [association_source:=node] [odometry:=/odom]
-[observations:=/landmark_detections]).
+[detections:=/landmark_detections]).
 
 ekf_slam_node takes the robot-frame detections on `sensor_observations` and the wheel odometry on
 `odometry`, publishes the map, pose and joint covariance and forwards each scan to
@@ -20,8 +20,8 @@ def generate_launch_description():
                               description='node (closed loop) or ground_truth (oracle)'),
         DeclareLaunchArgument('odometry', default_value='odometry',
                               description='nav_msgs/Odometry topic (increment covariances)'),
-        DeclareLaunchArgument('observations', default_value='sensor_observations',
-                              description='PointCloud2 of robot-frame detections'),
+        DeclareLaunchArgument('detections', default_value='sensor_observations',
+                              description='PointCloud2 of robot-frame detections (the scans)'),
     ]
     return LaunchDescription(arguments + [
         Node(package='data_association_ros', executable='association_node',
@@ -31,5 +31,5 @@ def generate_launch_description():
              output='screen',
              parameters=[{'association_source': LaunchConfiguration('association_source')}],
              remappings=[('odometry', LaunchConfiguration('odometry')),
-                         ('sensor_observations', LaunchConfiguration('observations'))]),
+                         ('sensor_observations', LaunchConfiguration('detections'))]),
     ])

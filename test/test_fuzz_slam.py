@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from data_association_ros.bag.slam_run import slam_config
 from data_association_ros.slam_pipeline import SlamPipeline
-from message_fuzz import SCALE, headers, odometries, plausible_clouds, raw_clouds
+from message_fuzz import NUMBERS, SCALE, headers, odometries, plausible_clouds, raw_clouds
 from msg_adapters import array_to_cloud, cloud_to_array
 from msg_adapters.outputs import CORRESPONDENCE_DTYPE, NEW_LANDMARK_DTYPE
 from ros_harness import cloud, header, odometry
@@ -56,7 +56,18 @@ def _truth(msg, known):
     return array_to_cloud(points, msg.header)
 
 
-MESSAGES = st.one_of(odometries(), plausible_clouds(), raw_clouds())
+@st.composite
+def new_landmark_clouds(draw):
+    """new_landmarks-shaped clouds: the real fields (some missing), hostile values."""
+    fields = [f for f in NEW_LANDMARK_DTYPE.names if draw(st.booleans()) or f in ('x', 'y')]
+    n = draw(st.integers(0, 6))
+    points = np.zeros(n, dtype=[(f, '<f8') for f in fields])
+    for f in fields:
+        points[f] = draw(st.lists(NUMBERS, min_size=n, max_size=n))
+    return array_to_cloud(points, draw(headers()))
+
+
+MESSAGES = st.one_of(odometries(), plausible_clouds(), raw_clouds(), new_landmark_clouds())
 
 
 @settings(max_examples=600 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
@@ -72,5 +83,6 @@ def test_hostile_messages_never_break_the_filter(mode, batch):
         if (handler == 'on_odometry') != (kind == 'Odometry'):
             continue   # the node's subscriptions are typed
         getattr(driver.slam, handler)(msg)   # never raises
+    driver.time = 20.0   # after every generated stamp: the valid steps are the newest
     driver.valid_step()
     driver.valid_step()

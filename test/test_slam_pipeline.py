@@ -174,3 +174,62 @@ def test_offline_run_scores_on_a_slice():
     run = run_offline(read_inputs(TTK, 40), 'jcbb', 'node', {'gate_probability': 0.999}, {})
     assert len(run.answers) == 40 and run.final_map is not None
     assert len(run.poses) == 40
+
+
+def test_restart_when_a_bag_plays_again(ttk_steps):
+    origin, steps = ttk_steps
+    slam = SlamPipeline(slam_config('ground_truth', {}))
+    slam.on_odometry(origin)
+    for odometry, scan, truth in steps[:12]:
+        slam.on_odometry(odometry)
+        slam.on_scan(scan)
+        slam.on_ground_truth(truth)
+    assert len(slam.slam) > 5
+    slam.on_odometry(origin)                   # too old for the filter: dropped
+    assert slam.statistics.dropped['odometry_too_old'] == 1
+    odometry, scan, truth = steps[0]           # 1.1 s older than the last scan: restart
+    slam.on_scan(scan)
+    assert slam.statistics.dropped['restarts'] == 1 and slam.slam is None
+    slam.on_odometry(origin)
+    out = slam.on_odometry(odometry)
+    assert [t for t, _ in out][-1] == 'observations'
+    slam.on_ground_truth(truth)
+    assert len(slam.slam) == len(cloud_to_array(truth))
+
+
+def test_new_landmarks_once_per_scan_and_late_ones_keep_their_origin(ttk_steps):
+    origin, steps = ttk_steps
+    slam = SlamPipeline(slam_config('node', {}))
+    association = AssociationPipeline(node_config('mahalanobis_nn', {}))
+    slam.on_odometry(origin)
+    odometry, scan, _ = steps[0]
+    slam.on_odometry(odometry)
+    answer = answer_with(association, slam.on_scan(scan))
+    slam.on_correspondences(answer.correspondences)
+    slam.on_new_landmarks(answer.new_landmarks)
+    count = len(slam.slam)
+    assert count == len(cloud_to_array(scan))
+    slam.on_new_landmarks(answer.new_landmarks)          # the same message again: ignored
+    assert len(slam.slam) == count
+    assert slam.statistics.dropped['repeated_new_landmarks'] == 1
+    odometry, scan1, _ = steps[1]
+    slam.on_odometry(odometry)
+    answer_with(association, slam.on_scan(scan1))       # the next scan is in flight
+    late = cloud_to_array(answer.new_landmarks)[:1]
+    late['candidate'] = 999
+    slam.on_new_landmarks(array_to_cloud(late, answer.new_landmarks.header))
+    assert slam.statistics.dropped['late_new_landmarks'] == 1
+    newest = int(slam.slam.ids[-1])
+    assert slam.origins[newest] == (stamp_ns(scan.header), int(late['observation'][0]))
+
+
+def test_odometry_without_scans_is_folded(monkeypatch, ttk_steps):
+    import data_association_ros.slam_pipeline as module
+    monkeypatch.setattr(module, 'MAX_ODOMETRY_QUEUE', 3)
+    origin, steps = ttk_steps
+    slam = SlamPipeline(slam_config('ground_truth', {}))
+    slam.on_odometry(origin)
+    for odometry, _, _ in steps[:6]:
+        slam.on_odometry(odometry)
+    assert len(slam.odometry_queue) == 3
+    assert slam.statistics.dropped['odometry_folded_without_scan'] == 4

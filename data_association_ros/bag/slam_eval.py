@@ -94,7 +94,7 @@ COLUMNS = (('bag', 'bag', 28, '{}'), ('algorithm', 'algorithm', 19, '{}'),
            ('mode', 'mode', 8, '{}'), ('pair_precision', 'precision', 10, '{:.4f}'),
            ('pair_recall', 'recall', 8, '{:.4f}'), ('correct_percent', 'correct %', 10, '{:.2f}'),
            ('wrong_percent', 'wrong %', 8, '{:.2f}'), ('missed_percent', 'missed %', 9, '{:.2f}'),
-           ('clutter_paired', 'clutter paired', 15, '{}'),
+           ('clutter_paired', 'clutter paired', 15, '{}'), ('answered', 'answered', 10, '{}'),
            ('landmarks', 'map', 6, '{}'), ('landmarks_true', 'true', 6, '{}'),
            ('landmarks_duplicate', 'dup', 5, '{}'), ('landmarks_false', 'false', 6, '{}'),
            ('landmarks_missed', 'missed', 7, '{}'), ('map_rmse_m', 'map rmse m', 11, '{:.3f}'),
@@ -108,6 +108,8 @@ def format_table(rows: list[dict[str, Any]], markdown: bool = False) -> str:
         value = row[key]
         if key == 'mode':
             return 'oracle' if value == 'ground_truth' else 'closed'
+        if key == 'answered':
+            return f'{value}/{row["scans"]}'
         if isinstance(value, float) and math.isnan(value):
             return '-'
         return fmt.format(value)

@@ -157,10 +157,13 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
     run = SlamRun()
     sent_at: dict[int, float] = {}
     done: set[int] = set()
+    timed_out: set[int] = set()
     final_map = [None]
 
     def on_answer(msg):
         stamp = stamp_ns(msg.header)
+        if stamp in timed_out:   # too late: the filter never used it
+            return
         run.answers[stamp] = cloud_to_array(msg)['landmark'].astype(np.int64)
         if stamp in sent_at:
             run.times_ms[stamp] = (time.monotonic() - sent_at[stamp]) * 1e3
@@ -202,18 +205,19 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
             if topic == topics.GROUND_TRUTH and mode != 'ground_truth':
                 continue
             if topic == topics.SENSOR_OBSERVATIONS:
-                stamp = stamp_ns(msg.header)
-                sent_at[stamp] = time.monotonic()
+                sent_at[stamp_ns(msg.header)] = time.monotonic()
                 run.scans_sent += 1
             publishers[topic].publish(msg)
             if topic == (topics.GROUND_TRUTH if mode == 'ground_truth'
                          else topics.SENSOR_OBSERVATIONS):
+                stamp = stamp_ns(msg.header)   # the scan this message completes
                 step_deadline = time.monotonic() + STEP_TIMEOUT_S
-                while stamp not in done and time.monotonic() < step_deadline and alive():
+                while not (stamp in done and stamp in run.answers) and alive() and \
+                        time.monotonic() < step_deadline:
                     executor.spin_once(timeout_sec=0.01)
-                while stamp not in run.answers and time.monotonic() < step_deadline and \
-                        alive():
-                    executor.spin_once(timeout_sec=0.01)
+                if stamp not in done:
+                    timed_out.add(stamp)
+                    run.answers.pop(stamp, None)
             if not alive():
                 break
         drain = time.monotonic() + DRAIN_S   # a map republished after late new landmarks

@@ -7,7 +7,8 @@ Per scan and observation with certain truth t and answer a:
   observations whose true landmark was in the map before the scan;
 - a NEW answer is false when its landmark was already in the map (a NEW clutter return is
   right: nothing explains it; M-of-N confirmation keeps it out of the map, see `false`);
-- correct / wrong / missed [% of the observations], as the TTK4250 harness counts: correct =
+- correct / wrong / missed [% of the observations of the answered scans; `answered` says how
+  many scans were], as the TTK4250 harness counts: correct =
   paired with its landmark, or not paired when its landmark is not in the map (clutter
   included); wrong = paired with another landmark; missed = not paired although its landmark is
   in the map.
@@ -69,11 +70,11 @@ def score_run(run: SlamRun, truth: SlamTruth,
     right_unpaired = missed = 0
     for stamp in sorted(truth.labels):
         labels, certain = truth.labels[stamp], truth.certain[stamp]
-        observations += int(certain.sum())
         answer = run.answers.get(stamp)
         if answer is None or len(answer) != len(labels):
             continue
         answered += 1
+        observations += int(certain.sum())
         mapped = np.array([label >= 0 and first_of.get(int(label), stamp) < stamp
                            for label in labels], dtype=bool)
         identity = np.array([ids.get(int(a), (CLUTTER, 0))[0] if a >= 0 else CLUTTER

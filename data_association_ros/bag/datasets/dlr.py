@@ -36,18 +36,13 @@ from pathlib import Path
 import numpy as np
 import scipy.io
 
-from .sequence import SlamSequence, SlamStep
+from ...core.models.base import wrap_angle
+from .sequence import COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'dlr_spatial_cognition'
 UNCERTAIN_ID = 23001
 START_NS = 1_000_000_000
 PERIOD_NS = 100_000_000
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    """Angle(s) wrapped to (-pi, pi] [rad]."""
-    wrapped = np.remainder(angle + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(wrapped == -np.pi, np.pi, wrapped)
 
 
 def _load(path: Path, name: str):
@@ -69,7 +64,7 @@ def load(data_directory: Path) -> SlamSequence:
         count = np.size(scan.ID)
         ids = np.atleast_1d(np.asarray(scan.ID)).astype(np.int64)
         true_pose = poses[k + 1].copy()
-        true_pose[2] = _wrap(true_pose[2])
+        true_pose[2] = wrap_angle(true_pose[2])
         steps.append(SlamStep(
             time_ns=START_NS + k * PERIOD_NS,
             increment=np.asarray(motion.x, dtype=float).reshape(3).copy(),
@@ -79,10 +74,10 @@ def load(data_directory: Path) -> SlamSequence:
             .transpose(2, 0, 1).copy(),
             truth=ids, truth_certain=ids != UNCERTAIN_ID, true_pose=true_pose))
     initial_pose = poses[0].copy()
-    initial_pose[2] = _wrap(initial_pose[2])
+    initial_pose[2] = wrap_angle(initial_pose[2])
     return SlamSequence(
         name='dlr_spatial_cognition',
         description='DLR Spatial Cognition: 3297 steps of odometry and Cartesian robot-frame '
                     'observations of white circles; truth = the data set IDs (23001 uncertain).',
         model='point_robot', initial_pose=initial_pose, initial_covariance=np.zeros((3, 3)),
-        steps=steps, true_landmarks=None, parameters={})
+        steps=steps, true_landmarks=None, parameters=dict(COURSE_SIGNIFICANCE))

@@ -53,7 +53,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .sequence import CLUTTER, SlamSequence, SlamStep
+from ...core.multi_hypothesis.motion import between
+from .sequence import CLUTTER, COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'utias_mrclam_ds1_robot1'
 SIGMA_RANGE = 0.15
@@ -71,12 +72,6 @@ YAW_PER_RADIAN = 0.025
 YAW_PER_METRE = 0.01
 """Increment var_yaw per metre travelled [rad^2 / m]."""
 FIRST_LANDMARK_SUBJECT = 6
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    """Angle(s) wrapped to (-pi, pi] [rad]."""
-    wrapped = np.remainder(angle + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(wrapped == -np.pi, np.pi, wrapped)
 
 
 def _milliseconds(seconds: np.ndarray) -> np.ndarray:
@@ -107,13 +102,6 @@ def _integrate(odometry_ms: np.ndarray, v: np.ndarray, w: np.ndarray,
     rotation = np.concatenate([[0.0], np.cumsum(np.abs(turn))])
     at = np.searchsorted(grid, query_ms)
     return np.column_stack([x[at], y[at], heading[at]]), distance[at], rotation[at]
-
-
-def _between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Increments (M, 3) from poses a (M, 3) to poses b (M, 3), in a's frame, yaw wrapped."""
-    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
-    dx, dy = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
-    return np.column_stack([c * dx + s * dy, -s * dx + c * dy, _wrap(b[:, 2] - a[:, 2])])
 
 
 def _increment_covariances(distance: np.ndarray, rotation: np.ndarray) -> np.ndarray:
@@ -148,7 +136,7 @@ def load(data_directory: Path) -> SlamSequence:
     scan_ms, first = np.unique(measurement_ms, return_index=True)
     poses, distance, rotation = _integrate(odometry_ms, odometry[:, 1], odometry[:, 2], scan_ms)
     previous = np.vstack([np.zeros(3), poses[:-1]])
-    increments = _between(previous, poses)
+    increments = between(previous, poses)
     covariances = _increment_covariances(np.diff(distance, prepend=0.0),
                                         np.diff(rotation, prepend=0.0))
     measurement_covariance = np.diag([SIGMA_RANGE, SIGMA_BEARING]) ** 2
@@ -170,4 +158,4 @@ def load(data_directory: Path) -> SlamSequence:
         model='range_bearing', initial_pose=np.zeros(3), initial_covariance=np.zeros((3, 3)),
         steps=steps,
         true_landmarks={int(row[0]): row[1:3].copy() for row in ground},
-        parameters={})
+        parameters=dict(COURSE_SIGNIFICANCE))

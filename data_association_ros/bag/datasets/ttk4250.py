@@ -46,7 +46,8 @@ from pathlib import Path
 import numpy as np
 import scipy.io
 
-from .sequence import CLUTTER, SlamSequence, SlamStep
+from ...core.models.base import wrap_angle
+from .sequence import CLUTTER, COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'ttk4250_simulated_slam'
 MEASUREMENT_COVARIANCE = np.diag([0.1, np.deg2rad(1.0)]) ** 2
@@ -55,12 +56,6 @@ INCREMENT_COVARIANCE = np.diag([0.1, 0.1, np.deg2rad(1.0)]) ** 2
 """Handout Q: diag(0.1 m, 0.1 m, 1 deg)^2 for (dx, dy, dyaw)."""
 START_NS = 1_000_000_000
 PERIOD_NS = 100_000_000
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    """Angle(s) wrapped to (-pi, pi] [rad]."""
-    wrapped = np.remainder(angle + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(wrapped == -np.pi, np.pi, wrapped)
 
 
 def _scan(cell) -> np.ndarray:
@@ -99,17 +94,17 @@ def load(data_directory: Path) -> SlamSequence:
     steps = []
     for k, scan in enumerate(scans):
         increment = np.zeros(3) if k == 0 else odometry[k - 1].copy()
-        increment[2] = _wrap(increment[2])
+        increment[2] = wrap_angle(increment[2])
         increment_covariance = np.zeros((3, 3)) if k == 0 else INCREMENT_COVARIANCE.copy()
         true_pose = poses[k].copy()
-        true_pose[2] = _wrap(true_pose[2])
+        true_pose[2] = wrap_angle(true_pose[2])
         steps.append(SlamStep(
             time_ns=START_NS + k * PERIOD_NS, increment=increment,
             increment_covariance=increment_covariance, values=scan,
             covariances=np.broadcast_to(MEASUREMENT_COVARIANCE, (len(scan), 2, 2)).copy(),
             truth=truth[k], truth_certain=certain[k], true_pose=true_pose))
     initial_pose = poses[0].copy()
-    initial_pose[2] = _wrap(initial_pose[2])
+    initial_pose[2] = wrap_angle(initial_pose[2])
     return SlamSequence(
         name='ttk4250_simulated',
         description='TTK4250 simulated EKF-SLAM: 1000 range-bearing scans of 108 point '
@@ -117,7 +112,7 @@ def load(data_directory: Path) -> SlamSequence:
         model='range_bearing', initial_pose=initial_pose, initial_covariance=np.zeros((3, 3)),
         steps=steps,
         true_landmarks={i: landmarks[i].copy() for i in range(len(landmarks))},
-        parameters={'gate_probability': 0.999, 'joint_gate_probability': 0.99999})
+        parameters=dict(COURSE_SIGNIFICANCE))
 
 
 CLUTTER_PARAMETERS = {'confirm_hits': 3, 'confirm_window': 3}

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.multi_hypothesis.motion import compose, compose_jacobians
-from .sequence import SlamSequence, SlamStep
+from .sequence import COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'victoria_park'
 FILE = 'victoria_park_gtsam.txt'
@@ -113,4 +113,4 @@ def load(data_directory: Path) -> SlamSequence:
                     'composed odometry and robot-frame (x forward, y left) tree positions; '
                     'truth = the file\'s reference association.',
         model='point_robot', initial_pose=np.zeros(3), initial_covariance=np.zeros((3, 3)),
-        steps=steps, true_landmarks=None, truth_is_reference=True, parameters={})
+        steps=steps, true_landmarks=None, truth_is_reference=True, parameters=dict(COURSE_SIGNIFICANCE))

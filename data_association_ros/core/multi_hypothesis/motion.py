@@ -19,11 +19,13 @@ def compose(pose: np.ndarray, increment: np.ndarray) -> np.ndarray:
 
 
 def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The increment u (3,) with compose(a, u) = b: R(yaw_a)^T (b - a) and the wrapped yaw
-    difference."""
-    c, s = np.cos(a[2]), np.sin(a[2])
-    d = np.asarray(b[:2], dtype=float) - a[:2]
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], wrap_angle(b[2] - a[2])])
+    """The increments u (..., 3) with compose(a, u) = b for poses (..., 3) (broadcast):
+    R(yaw_a)^T (b - a) and the wrapped yaw difference."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    dx, dy = b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]
+    return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(b[..., 2] - a[..., 2])],
+                    axis=-1)
 
 
 def compose_jacobians(pose: np.ndarray, increment: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
