@@ -71,6 +71,10 @@ SLAM_PARAMETERS = (
     NodeParameter('max_pending_scans', 10, 'scans waiting for odometry beyond this many are '
                   'processed with the odometry there is',
                   spec=ParameterSpec('max_pending_scans', 10, '', kind=int, low=0, high=1000)),
+    NodeParameter('odometry_noise_scale', 1.0, 'multiplies every odometry increment covariance '
+                  '(inflate it when the odometry is biased or its covariance optimistic)',
+                  spec=ParameterSpec('odometry_noise_scale', 1.0, '', low=0.0, high=1e6,
+                                     low_open=True)),
     NodeParameter('min_motion_variance', 1e-9, 'added to the diagonal of every odometry '
                   'increment covariance [m^2, rad^2]',
                   spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
@@ -256,7 +260,8 @@ class SlamPipeline:
         if self.slam is None:
             self.slam = self._start(model)
         increment, noise = self.odometry.take()
-        self.slam.predict(increment, noise + np.eye(3) * self.config['min_motion_variance'])
+        self.slam.predict(increment, noise * self.config['odometry_noise_scale']
+                          + np.eye(3) * self.config['min_motion_variance'])
         stamp = stamp_ns(msg.header)
         self.current = CurrentScan(stamp, msg.header, observations)
         self.statistics.scans += 1

@@ -9,21 +9,23 @@ from ..core import InvalidInputError
 from ..node_parameters import BY_NAME
 
 
-def parse_assignments(assignments: Iterable[str]) -> dict[str, Any]:
+def parse_assignments(assignments: Iterable[str],
+                      declarations: Mapping[str, Any] = BY_NAME) -> dict[str, Any]:
     """{'name': value} from ['name:=value', ...]; values read as YAML (true, 0.5, [1.0, 2.0]),
-    each checked against the node's parameter declaration."""
+    each checked against the node's parameter declaration (`declarations`: name ->
+    NodeParameter; the association node's by default)."""
     values: dict[str, Any] = {}
     for assignment in assignments:
         name, separator, text = assignment.partition(':=')
         if not separator:
             raise InvalidInputError(f'-p {assignment}: expected name:=value')
-        if name not in BY_NAME:
-            raise InvalidInputError(f'-p {assignment}: association_node has no parameter {name!r}')
+        if name not in declarations:
+            raise InvalidInputError(f'-p {assignment}: the node has no parameter {name!r}')
         try:
             value = yaml.safe_load(text)
         except yaml.YAMLError:
             value = text
-        values[name] = BY_NAME[name].check(value)
+        values[name] = declarations[name].check(value)
     return values
 
 

@@ -32,6 +32,7 @@ from .parameter_arguments import parse_assignments
 from .reader import BagError, BagReader
 from .replay import bag_parameters
 from .rosbag2_metadata import read_metadata
+from ..slam_pipeline import SLAM_BY_NAME
 from .slam_run import MODES, bag_slam_parameters, read_inputs, run_live, run_offline
 from .slam_scoring import SlamTruth, score_run
 
@@ -77,12 +78,13 @@ def read_slam_truth(bag: Path, steps: Optional[int] = None) -> SlamTruth:
 
 
 def evaluate(bag: Path, algorithm: str, mode: str, overrides: dict[str, Any],
-             steps: Optional[int] = None, live: bool = False) -> dict[str, Any]:
+             steps: Optional[int] = None, live: bool = False,
+             slam_overrides: Optional[dict[str, Any]] = None) -> dict[str, Any]:
     """One row of the table."""
     messages = read_inputs(bag, steps)
     run = (run_live if live else run_offline)(
         messages, algorithm, mode, {**bag_parameters(bag), **overrides},
-        bag_slam_parameters(bag))
+        {**bag_slam_parameters(bag), **(slam_overrides or {})})
     row = score_run(run, read_slam_truth(bag, steps), RMSE_EXCLUDE.get(bag.name, ()))
     custom = read_metadata(bag).get('custom_data') or {}
     return {'bag': bag.name, 'algorithm': algorithm, 'mode': mode,
@@ -144,6 +146,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     parser.add_argument('--json', action='store_true', help='print JSON rows')
     parser.add_argument('-p', dest='parameters', action='append', default=[],
                         metavar='NAME:=VALUE', help='association_node parameter (repeatable)')
+    parser.add_argument('-s', dest='slam_parameters', action='append', default=[],
+                        metavar='NAME:=VALUE', help='ekf_slam_node parameter (repeatable)')
     args = parser.parse_args(argv)
     modes = args.modes.split(',')
     if any(mode not in MODES for mode in modes):
@@ -154,10 +158,12 @@ def main(argv: Optional[list[str]] = None) -> int:
         print(format_table([]), flush=True)
     try:
         overrides = parse_assignments(args.parameters)
+        slam_overrides = parse_assignments(args.slam_parameters, SLAM_BY_NAME)
         for bag in args.bags or slam_bags():
             for algorithm in args.algorithms.split(','):
                 for mode in modes:
-                    row = evaluate(bag, algorithm, mode, overrides, args.steps, args.live)
+                    row = evaluate(bag, algorithm, mode, overrides, args.steps, args.live,
+                                   slam_overrides)
                     rows.append(row)
                     if streaming:
                         print(format_table([row]).splitlines()[-1], flush=True)
