@@ -95,6 +95,11 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
     NodeParameter('candidate_max_misses', 2,
                   'a candidate not seen on this many scans in a row is dropped',
                   spec=ParameterSpec('candidate_max_misses', 2, '', kind=int, low=1, high=1000)),
+    NodeParameter('candidate_pose_uncertainty', True,
+                  'candidates are matched and fused with the map-frame covariance including the '
+                  'robot pose\'s uncertainty (true) or with the observation noise alone (false: '
+                  'when the pose error is common to consecutive scans, as in a SLAM filter)',
+                  spec=ParameterSpec('candidate_pose_uncertainty', True, '', kind=bool)),
     NodeParameter('reevaluation_window', 5, 'multi_hypothesis: past steps re-evaluated and '
                   'published on past_associations', spec=ParameterSpec(
                       'reevaluation_window', 5, '', kind=int, low=1, high=1000)),

