@@ -5,20 +5,23 @@ scan order, the sensor at the frame's origin); each message is one scan for
 core.lidar.LidarObjectTracker (clusters, coarse + fine association, rigid correction, Kalman
 update).  Publishes, with the scan's header: `tracks` (PointCloud2, msg_adapters.lidar
 TRACK_DTYPE: the reported tracks), `track_boundaries` (PointCloud2: id, x, y of each reported
-track's visible boundary points) and, when publish_markers, `track_markers` (MarkerArray).
+track's visible boundary points) and, when publish_markers, `track_markers` (MarkerArray);
+`/diagnostics` every second (scans tracked and dropped, live tracks, last step time).
 Every parameter can change at run time except input_qos.  A malformed scan (bad angles, missing
 fields) or one not newer than the last is counted and dropped, never fatal; a scan more than
 1 s older than the last restarts the tracker (a bag played again).
 """
 from __future__ import annotations
 
+import time
 from typing import Optional
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan, PointCloud2
 from visualization_msgs.msg import MarkerArray
 
-from msg_adapters import PointCloudFormatError
+from msg_adapters import PointCloudFormatError, diagnostics_message
 from msg_adapters.lidar import (boundaries_cloud, points_from_cloud, points_from_scan,
                                 track_markers, tracks_cloud)
 
@@ -66,6 +69,10 @@ class LidarTrackerNode(ParameterizedNode):
         self.tracks_pub = self.create_publisher(PointCloud2, 'tracks', 10)
         self.boundaries_pub = self.create_publisher(PointCloud2, 'track_boundaries', 10)
         self.markers_pub = self.create_publisher(MarkerArray, 'track_markers', 10)
+        self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.scans = 0
+        self.last_step_ms = float('nan')
+        self.create_timer(1.0, self.publish_diagnostics)
         self.get_logger().info(f'lidar_tracker_node ready: coarse {self.config["coarse"]}, '
                                f'fine {self.config["fine"]}, jnis {self.config["jnis"]}')
 
@@ -88,7 +95,10 @@ class LidarTrackerNode(ParameterizedNode):
                 self.get_logger().warning(f'scan {last - stamp:.2f} s older than the last: '
                                           'tracker restarted')
                 self.tracker.reset()
+            started = time.perf_counter()
             tracks = self.tracker.step(points, stamp)
+            self.last_step_ms = (time.perf_counter() - started) * 1e3
+            self.scans += 1
         except (InvalidInputError, PointCloudFormatError) as error:
             self.invalid += 1
             self.get_logger().warning(f'scan dropped ({self.invalid} so far): {error}',
@@ -106,6 +116,16 @@ class LidarTrackerNode(ParameterizedNode):
             header, [t.id for t in tracks], [t.boundary(spacing, most) for t in tracks]))
         if self.config['publish_markers']:
             self.markers_pub.publish(track_markers(header, tracks, stamp))
+
+
+    def publish_diagnostics(self) -> None:
+        """One DiagnosticArray: scans tracked, scans dropped, live tracks, last step time."""
+        values = {'scans': self.scans, 'scans_dropped': self.invalid,
+                  'tracks': len(self.tracker.tracks),
+                  'last_step_ms': f'{self.last_step_ms:.2f}'}
+        self.diagnostics_pub.publish(diagnostics_message(
+            self.get_clock().now().to_msg(), self.get_name(), values, warn=self.invalid > 0,
+            message='some scans dropped' if self.invalid else 'ok'))
 
 
 def main(args: Optional[list[str]] = None) -> None:

@@ -2,6 +2,7 @@
 against the bag's truth; malformed scans; run-time parameters."""
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan, PointCloud2
 
@@ -89,6 +90,13 @@ def test_bad_scans_are_dropped_and_the_node_keeps_working(graph):
     graph.publisher(LaserScan, 'scan').publish(scans[1])  # not newer than the last: dropped
     graph.spin_until(lambda: graph.node.invalid >= 3, 5.0)
     assert graph.node.invalid == 3 and len(graph.received['tracks']) == before
+    diagnostics = graph.collect(DiagnosticArray, '/diagnostics')
+    graph.spin_until(lambda: any(
+        {v.key: v.value for v in m.status[0].values}.get('scans_dropped') == '3'
+        for m in diagnostics), 5.0)
+    values = {v.key: v.value for v in diagnostics[-1].status[0].values}
+    assert values['scans_dropped'] == '3' and values['scans'] == '3'
+    assert diagnostics[-1].status[0].level == DiagnosticStatus.WARN
     for msg in scans[4:12]:
         tracks = cloud_to_array(send(graph, msg))
     assert len(tracks) >= 2 and np.all(np.isfinite(tracks['x']))
