@@ -1,5 +1,5 @@
 """Rewrite config/association.yaml and the README's parameter tables from the declarations
-(association_node: NODE_PARAMETERS; ekf_slam_node: SLAM_PARAMETERS).
+(association_node, ekf_slam_node, box_tracker_node, lidar_tracker_node).
 
 Run after changing a parameter: python scripts/update_parameter_docs.py (the tests check that
 both files match the declarations).
@@ -10,11 +10,14 @@ import pathlib
 import re
 
 from data_association_ros.node_parameters import NODE_PARAMETERS
+from data_association_ros.box_tracker_node import TRACKER_PARAMETERS
+from data_association_ros.lidar_tracker_node import LIDAR_NODE_PARAMETERS
 from data_association_ros.slam_pipeline import SLAM_PARAMETERS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-BEGIN, END = '<!-- parameters:begin -->', '<!-- parameters:end -->'
-SLAM_BEGIN, SLAM_END = '<!-- slam-parameters:begin -->', '<!-- slam-parameters:end -->'
+TABLES = (('parameters', NODE_PARAMETERS), ('slam-parameters', SLAM_PARAMETERS),
+          ('box-parameters', TRACKER_PARAMETERS), ('lidar-parameters', LIDAR_NODE_PARAMETERS))
+"""README marker name -> the declarations of its table."""
 
 
 def yaml_value(value) -> str:
@@ -50,8 +53,8 @@ def readme_table(parameters=NODE_PARAMETERS) -> str:
 def main() -> None:
     (ROOT / 'config' / 'association.yaml').write_text(config_text())
     readme = (ROOT / 'README.md').read_text()
-    for begin, end, parameters in ((BEGIN, END, NODE_PARAMETERS),
-                                   (SLAM_BEGIN, SLAM_END, SLAM_PARAMETERS)):
+    for name, parameters in TABLES:
+        begin, end = f'<!-- {name}:begin -->', f'<!-- {name}:end -->'
         pattern = re.compile(re.escape(begin) + '.*?' + re.escape(end), re.S)
         readme = pattern.sub(lambda _: f'{begin}\n{readme_table(parameters)}\n{end}', readme)
     (ROOT / 'README.md').write_text(readme)

@@ -35,8 +35,8 @@ def test_generated_parameter_docs_are_current():
     spec.loader.exec_module(module)
     assert (ROOT / 'config' / 'association.yaml').read_text() == module.config_text()
     readme = (ROOT / 'README.md').read_text()
-    assert module.readme_table() in readme
-    assert module.readme_table(module.SLAM_PARAMETERS) in readme   # ekf_slam_node
+    for name, parameters in module.TABLES:   # association, ekf_slam, box and lidar tracker
+        assert module.readme_table(parameters) in readme, name
 
 
 def test_package_xml_and_setup_cfg():
