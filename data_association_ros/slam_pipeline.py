@@ -36,12 +36,13 @@ from msg_adapters import (PointCloudFormatError, cloud_to_array, covariance_mess
                           point_map_cloud, pose_from_odometry)
 
 from .core import InvalidInputError, Observations
-from .core.validation import check_covariance_matrix
-from .core.parameters import ParameterSpec
 from .core.models import MODELS
+from .core.parameters import ParameterSpec
 from .core.slam import EkfSlam, OdometryIncrements
+from .core.validation import check_covariance_matrix
 from .node_parameters import BY_NAME, NodeParameter
 from .pipeline import NS_PER_S, stamp_ns
+from .statistics import WarningThrottle
 
 INPUT_ERRORS = (InvalidInputError, PointCloudFormatError, ValueError)
 MAP_FRAME = 'map'
@@ -154,7 +155,7 @@ class SlamPipeline:
         self.origins: dict[int, tuple[int, int]] = {}   # landmark id -> (stamp, observation)
         self.next_id = 0
         self.added_for: set[int] = set()   # scan stamps whose new landmarks were added
-        self._last_warning: dict[str, float] = {}
+        self._throttle = WarningThrottle()
 
     # -- inputs -------------------------------------------------------------------------
     def on_odometry(self, msg) -> Outputs:
@@ -441,7 +442,5 @@ class SlamPipeline:
         return []
 
     def _warn(self, cause: str, text: str) -> None:
-        now = time.monotonic()
-        if now - self._last_warning.get(cause, -1e9) >= 5.0:
-            self._last_warning[cause] = now
+        if self._throttle.should_warn(cause, time.monotonic()):
             self.warn(f'{text} (further {cause!r} warnings throttled)')

@@ -8,10 +8,27 @@ import numpy as np
 from .core import NEW, UNASSOCIATED
 
 
-class AssociationStatistics:
+class WarningThrottle:
+    """Lets a warning per cause through at most once per `warn_period_s`."""
+
+    def __init__(self, warn_period_s: float = 5.0) -> None:
+        self.warn_period_s = warn_period_s
+        self._last_warned: dict[str, float] = {}
+
+    def should_warn(self, cause: str, now_s: float) -> bool:
+        """True at most once per `warn_period_s` for each cause (throttled warnings)."""
+        last = self._last_warned.get(cause)
+        if last is not None and now_s - last < self.warn_period_s:
+            return False
+        self._last_warned[cause] = now_s
+        return True
+
+
+class AssociationStatistics(WarningThrottle):
     """Answered messages, outcomes per observation, skipped/invalid messages by cause, latency."""
 
     def __init__(self, warn_period_s: float = 5.0) -> None:
+        super().__init__(warn_period_s)
         self.answered = 0
         self.outcomes: Counter = Counter()
         self.skipped: Counter = Counter()
@@ -23,8 +40,6 @@ class AssociationStatistics:
         self.latency_last_ms = float('nan')
         self.latency_max_ms = 0.0
         self._latency_sum_ms = 0.0
-        self.warn_period_s = warn_period_s
-        self._last_warned: dict[str, float] = {}
 
     def record_answer(self, assignment: np.ndarray, latency_ms: float, truncated: bool) -> None:
         """One observation message answered."""
@@ -42,14 +57,6 @@ class AssociationStatistics:
         self.candidates_confirmed += confirmed
         self.candidates_expired += expired
         self.candidates_pending = pending
-
-    def should_warn(self, cause: str, now_s: float) -> bool:
-        """True at most once per `warn_period_s` for each cause (throttled warnings)."""
-        last = self._last_warned.get(cause)
-        if last is not None and now_s - last < self.warn_period_s:
-            return False
-        self._last_warned[cause] = now_s
-        return True
 
     def key_values(self) -> dict[str, object]:
         """Flat name -> value mapping for diagnostics."""

@@ -10,6 +10,7 @@ import pathlib
 import re
 
 from data_association_ros.node_parameters import NODE_PARAMETERS
+from data_association_ros.bag.parameter_arguments import float_text
 from data_association_ros.box_tracker_node import TRACKER_PARAMETERS
 from data_association_ros.lidar_tracker_node import LIDAR_NODE_PARAMETERS
 from data_association_ros.slam_pipeline import SLAM_PARAMETERS
@@ -24,8 +25,7 @@ def yaml_value(value) -> str:
     if isinstance(value, bool):
         return 'true' if value else 'false'
     if isinstance(value, float):
-        text = repr(value)
-        return text.replace('e-', '.0e-') if 'e' in text and '.' not in text else text
+        return float_text(value)
     if isinstance(value, list):
         return '[' + ', '.join(yaml_value(float(v)) for v in value) + ']'
     return str(value)

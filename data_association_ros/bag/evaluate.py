@@ -37,11 +37,10 @@ DEFAULT_ALGORITHMS = ('euclidean_nn', 'mahalanobis_nn', 'maximum_likelihood', 'g
 def bag_algorithms(bag: Path) -> tuple[str, ...]:
     """The algorithms a bag's metadata names as applicable (all point algorithms if none)."""
     from .make_bags import ALGORITHMS_KEY
-    from .rosbag2_metadata import read_metadata
-    if (Path(bag) / 'metadata.yaml').is_file():
-        custom = read_metadata(Path(bag)).get('custom_data') or {}
-        if custom.get(ALGORITHMS_KEY):
-            return tuple(custom[ALGORITHMS_KEY].split(','))
+    from .rosbag2_metadata import read_custom_data
+    custom = read_custom_data(bag)
+    if custom.get(ALGORITHMS_KEY):
+        return tuple(custom[ALGORITHMS_KEY].split(','))
     return DEFAULT_ALGORITHMS
 
 

@@ -176,27 +176,19 @@ def estimate_from_tracks(msg) -> Estimate:
 def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0) -> list[Estimate]:
     """The bag's scans through a lidar_tracker_node (parameters = config) over DDS, one at a
     time; the reported tracks per scan (RuntimeError when a reply does not come)."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import LaserScan, PointCloud2
 
     from ..lidar_tracker_node import LidarTrackerNode
-    from .ros_environment import use_loopback_dds
-    use_loopback_dds()
-    context = Context()
-    rclpy.init(context=context)
-    executor = SingleThreadedExecutor(context=context)
+    from .ros_environment import close_graph, open_graph
+    context, player, executor = open_graph('da_lidar_eval')
     reliable = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
     overrides = [Parameter(name, value=getattr(config, name)) for name in
                  config.__dataclass_fields__] + [Parameter('input_qos', value='reliable')]
     node = LidarTrackerNode(context=context, parameter_overrides=overrides)
-    player = rclpy.create_node('da_lidar_eval', context=context)
+    executor.add_node(node)
     try:
-        for each in (node, player):
-            executor.add_node(each)
         publisher = player.create_publisher(LaserScan, 'scan', reliable)
         replies: list = []
         player.create_subscription(PointCloud2, 'tracks', replies.append, reliable)
@@ -214,10 +206,9 @@ def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0) -> list[Es
             spin_until(lambda: len(replies) >= count)
         return [estimate_from_tracks(msg) for msg in replies]
     finally:
-        executor.shutdown()
+        executor.remove_node(node)
         node.destroy_node()
-        player.destroy_node()
-        rclpy.shutdown(context=context)
+        close_graph(context, player, executor)
 
 
 def table_rows(label: str, scores: dict[int, ObjectScore], elapsed: Optional[np.ndarray]) -> str:

@@ -9,7 +9,6 @@ missing.  DDS stays on loopback with a domain id of its own.
 from __future__ import annotations
 
 import argparse
-import signal
 import subprocess
 import sys
 import tempfile
@@ -18,9 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
 
-from .parameter_arguments import parse_assignments, ros_arguments
+from .parameter_arguments import parse_assignments
 from .reader import BagError, BagReader
-from .ros_environment import use_loopback_dds
+from .ros_environment import (association_node_command, close_graph, open_graph,
+                              stop_processes)
 from . import topics
 
 WAIT_FOR_NODE_S = 30.0
@@ -81,9 +81,6 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
     """Play `bag` into a fresh association_node; the answers recorded (see module doc).
     restart_after: kill the node (SIGKILL) after that many observation messages and start a
     new one without waiting for it (fault injection: what is sent meanwhile is lost)."""
-    use_loopback_dds()
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import PointCloud2
 
@@ -95,17 +92,12 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
     inputs = [(m.topic, m.msg, m.log_time_ns) for m in reader.messages(present)]
     qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
     log = tempfile.TemporaryFile()
-    command = [sys.executable, '-m', 'data_association_ros.node', '--ros-args',
-               '-p', f'algorithm:={algorithm}', *ros_arguments(parameters),
-               '-p', 'qos_depth:=1000']
+    command = association_node_command(algorithm, parameters)
+
     def start_node():
         return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
     process = start_node()
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = rclpy.create_node('da_bag_replay', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
+    context, node, executor = open_graph('da_bag_replay')
     result = ReplayResult()
 
     def record(topic):
@@ -164,19 +156,8 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
         result.answered = sum(1 for t, _, _ in result.recorded if t == topics.CORRESPONDENCES)
     finally:
         result.node_alive = process.poll() is None
-        executor.remove_node(node)
-        node.destroy_node()
-        executor.shutdown()
-        rclpy.shutdown(context=context)
-        if result.node_alive:
-            process.send_signal(signal.SIGINT)
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                process.kill()
-        log.seek(0)
-        result.node_log = log.read().decode(errors='replace')
-        log.close()
+        close_graph(context, node, executor)
+        result.node_log = stop_processes([process], log)
     return result
 
 
@@ -233,11 +214,8 @@ def bag_parameters(bag: Path) -> dict[str, Any]:
     import json
 
     from .make_bags import PARAMETERS_KEY
-    from .rosbag2_metadata import read_metadata
-    if not (Path(bag) / 'metadata.yaml').is_file():
-        return {}
-    custom = read_metadata(Path(bag)).get('custom_data') or {}
-    return json.loads(custom.get(PARAMETERS_KEY, '{}'))
+    from .rosbag2_metadata import read_custom_data
+    return json.loads(read_custom_data(bag).get(PARAMETERS_KEY, '{}'))
 
 
 if __name__ == '__main__':

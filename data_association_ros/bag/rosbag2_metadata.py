@@ -68,6 +68,13 @@ def write_metadata(directory: Path, document: dict[str, Any]) -> None:
     (directory / 'metadata.yaml').write_text(text)
 
 
+def read_custom_data(bag: Path) -> dict[str, str]:
+    """custom_data of a bag directory's metadata.yaml ({} when it has none or no metadata)."""
+    if not (Path(bag) / 'metadata.yaml').is_file():
+        return {}
+    return read_metadata(Path(bag)).get('custom_data') or {}
+
+
 def read_metadata(directory: Path) -> dict[str, Any]:
     """The rosbag2_bagfile_information mapping of a bag directory's metadata.yaml."""
     document = yaml.safe_load((directory / 'metadata.yaml').read_text())

@@ -31,7 +31,7 @@ from .make_bags import DEFAULT_DIRECTORY
 from .parameter_arguments import parse_assignments
 from .reader import BagError, BagReader
 from .replay import bag_parameters
-from .rosbag2_metadata import read_metadata
+from .rosbag2_metadata import read_custom_data
 from ..slam_pipeline import SLAM_BY_NAME
 from .slam_run import MODES, bag_slam_parameters, read_inputs, run_live, run_offline
 from .slam_scoring import SlamTruth, score_run
@@ -44,13 +44,8 @@ in this copy (its SOURCES.md)."""
 def slam_bags(directory: Path = DEFAULT_DIRECTORY) -> list[Path]:
     """The bags in `directory` made from a SLAM data set (their metadata names SLAM
     parameters)."""
-    found = []
-    for path in sorted(Path(directory).iterdir()):
-        if (path / 'metadata.yaml').is_file():
-            custom = read_metadata(path).get('custom_data') or {}
-            if SLAM_PARAMETERS_KEY in custom:
-                found.append(path)
-    return found
+    return [path for path in sorted(Path(directory).iterdir())
+            if SLAM_PARAMETERS_KEY in read_custom_data(path)]
 
 
 def read_slam_truth(bag: Path, steps: Optional[int] = None) -> SlamTruth:
@@ -86,9 +81,8 @@ def evaluate(bag: Path, algorithm: str, mode: str, overrides: dict[str, Any],
         messages, algorithm, mode, {**bag_parameters(bag), **overrides},
         {**bag_slam_parameters(bag), **(slam_overrides or {})})
     row = score_run(run, read_slam_truth(bag, steps), RMSE_EXCLUDE.get(bag.name, ()))
-    custom = read_metadata(bag).get('custom_data') or {}
     return {'bag': bag.name, 'algorithm': algorithm, 'mode': mode,
-            'truth': custom.get(TRUTH_KIND_KEY, 'true'), **row,
+            'truth': read_custom_data(bag).get(TRUTH_KIND_KEY, 'true'), **row,
             'nodes_alive': run.nodes_alive}
 
 

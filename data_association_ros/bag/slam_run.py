@@ -10,7 +10,6 @@ Both give a SlamRun.
 from __future__ import annotations
 
 import json
-import signal
 import subprocess
 import sys
 import tempfile
@@ -21,7 +20,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from msg_adapters import cloud_to_array
+from msg_adapters import cloud_to_array, pose_from_odometry
 
 from ..pipeline import AssociationPipeline, stamp_ns
 from ..slam_pipeline import SLAM_BY_NAME, SLAM_PARAMETERS, SlamPipeline
@@ -62,9 +61,8 @@ def slam_config(mode: str, overrides: dict[str, Any]) -> dict[str, Any]:
 
 def bag_slam_parameters(bag: Path) -> dict[str, Any]:
     """The ekf_slam_node parameters a bag's metadata asks for (initial pose)."""
-    from .rosbag2_metadata import read_metadata
-    custom = read_metadata(Path(bag)).get('custom_data') or {}
-    return json.loads(custom.get(SLAM_PARAMETERS_KEY, '{}'))
+    from .rosbag2_metadata import read_custom_data
+    return json.loads(read_custom_data(bag).get(SLAM_PARAMETERS_KEY, '{}'))
 
 
 def read_inputs(bag: Path, steps: Optional[int] = None) -> list[tuple[str, Any]]:
@@ -122,7 +120,6 @@ def run_offline(messages: list[tuple[str, Any]], algorithm: str, mode: str,
 
 
 def _pose_of(msg) -> np.ndarray:
-    from msg_adapters import pose_from_odometry
     return pose_from_odometry(msg).mean
 
 
@@ -130,29 +127,22 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
              association_parameters: dict[str, Any],
              slam_parameters: dict[str, Any]) -> SlamRun:
     """Both nodes as processes, scans in lockstep (see the module doc)."""
-    from .parameter_arguments import ros_arguments
-    from .ros_environment import use_loopback_dds
-    use_loopback_dds()
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from .parameter_arguments import ros_arguments
+    from .ros_environment import (association_node_command, close_graph, open_graph,
+                                  stop_processes)
 
     from .message_types import message_class
     slam_values = slam_config(mode, slam_parameters)
     node_config(algorithm, association_parameters)  # checked before anything starts
     log = tempfile.TemporaryFile()
     commands = [
-        [sys.executable, '-m', 'data_association_ros.node', '--ros-args',
-         '-p', f'algorithm:={algorithm}', *ros_arguments(association_parameters),
-         '-p', 'qos_depth:=1000'],
+        association_node_command(algorithm, association_parameters),
         [sys.executable, '-m', 'data_association_ros.ekf_slam_node', '--ros-args',
          *ros_arguments(slam_values, SLAM_BY_NAME)]]
     processes = [subprocess.Popen(c, stdout=log, stderr=subprocess.STDOUT) for c in commands]
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = rclpy.create_node('da_slam_run', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
+    context, node, executor = open_graph('da_slam_run')
     qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
     run = SlamRun()
     sent_at: dict[int, float] = {}
@@ -225,20 +215,7 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
             executor.spin_once(timeout_sec=0.01)
     finally:
         run.nodes_alive = alive()
-        executor.remove_node(node)
-        node.destroy_node()
-        executor.shutdown()
-        rclpy.shutdown(context=context)
-        for process in processes:
-            if process.poll() is None:
-                process.send_signal(signal.SIGINT)
-        for process in processes:
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                process.kill()
-        log.seek(0)
-        run.log = log.read().decode(errors='replace')
-        log.close()
+        close_graph(context, node, executor)
+        run.log = stop_processes(processes, log)
     run.final_map = None if final_map[0] is None else cloud_to_array(final_map[0])
     return run
