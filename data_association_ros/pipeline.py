@@ -21,10 +21,11 @@ from msg_adapters import (PointCloudFormatError, array_to_cloud, association_mar
                           landmarks_from_pose_array, new_landmarks_cloud, observations_from_points,
                           pose_from_odometry, transform_message)
 
-from .core import NEW, Association, InvalidInputError, Landmarks, RobotPose, associate
+from .core import NEW, Association, InvalidInputError, Landmarks, RobotPose
 from .core.candidates import CandidateManager, CandidateUpdate
 from .core.initialisation import observations_in_map
 from .core.models import MODELS
+from .core.pose_recovery import RECOVERED, PoseRecovery, associate_with_pose_recovery
 from .multi_hypothesis_stage import MultiHypothesisStage
 from .node_parameters import MULTI_HYPOTHESIS, algorithm_arguments
 from .stamped_buffer import StampedBuffer
@@ -181,8 +182,10 @@ class AssociationPipeline:
         if state_covariance is not None and \
                 state_covariance.shape[0] != 3 + len(landmarks) * landmarks.dim:
             state_covariance = None
-        result = associate(landmarks, observations, config['algorithm'], pose=pose,
-                           state_covariance=state_covariance, **algorithm_arguments(config))
+        result = associate_with_pose_recovery(
+            landmarks, observations, config['algorithm'], pose, state_covariance,
+            PoseRecovery(config['recovery_position_std'], config['recovery_yaw_std'],
+                         config['recovery_min_new']), **algorithm_arguments(config))
         positions, covariances = observations_in_map(observations, pose)
         if pose is not None and not config['candidate_pose_uncertainty']:
             # the observation noise alone: a SLAM's pose error is common to consecutive scans
@@ -203,7 +206,7 @@ class AssociationPipeline:
             transform=transform_message(msg.header, result.extras['transform'])
             if 'transform' in result.extras else None)
         self.statistics.record_answer(result.assignment, (time.perf_counter() - started) * 1e3,
-                                      result.truncated)
+                                      result.truncated, result.extras[RECOVERED])
         self.statistics.record_candidates(len(update.confirmed), len(update.expired),
                                           len(self.candidates.pending))
         return answer

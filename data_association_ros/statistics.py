@@ -34,6 +34,7 @@ class AssociationStatistics(WarningThrottle):
         self.skipped: Counter = Counter()
         self.invalid: Counter = Counter()
         self.truncated = 0
+        self.pose_recoveries = 0
         self.candidates_confirmed = 0
         self.candidates_expired = 0
         self.candidates_pending = 0
@@ -41,13 +42,15 @@ class AssociationStatistics(WarningThrottle):
         self.latency_max_ms = 0.0
         self._latency_sum_ms = 0.0
 
-    def record_answer(self, assignment: np.ndarray, latency_ms: float, truncated: bool) -> None:
-        """One observation message answered."""
+    def record_answer(self, assignment: np.ndarray, latency_ms: float, truncated: bool,
+                      pose_recovered: bool = False) -> None:
+        """One observation message answered (pose_recovered: by the widened second pass)."""
         self.answered += 1
         self.outcomes['paired'] += int((assignment >= 0).sum())
         self.outcomes['new'] += int((assignment == NEW).sum())
         self.outcomes['unassociated'] += int((assignment == UNASSOCIATED).sum())
         self.truncated += int(truncated)
+        self.pose_recoveries += int(pose_recovered)
         self.latency_last_ms = latency_ms
         self.latency_max_ms = max(self.latency_max_ms, latency_ms)
         self._latency_sum_ms += latency_ms
@@ -70,6 +73,7 @@ class AssociationStatistics(WarningThrottle):
             'observations_new': self.outcomes['new'],
             'observations_unassociated': self.outcomes['unassociated'],
             'search_truncations': self.truncated,
+            'pose_recoveries': self.pose_recoveries,
             'landmarks_confirmed': self.candidates_confirmed,
             'candidates_expired': self.candidates_expired,
             'candidates_pending': self.candidates_pending,
