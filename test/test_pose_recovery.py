@@ -11,11 +11,13 @@ from data_association_ros.core import InvalidInputError
 from data_association_ros.core.models import MODELS
 from data_association_ros.core.pose_recovery import (RECOVERED, PoseRecovery,
                                                      associate_with_pose_recovery)
-from data_association_ros.pipeline import AssociationPipeline
-from data_association_ros.bag.offline import node_config
-from msg_adapters import array_to_cloud, odometry_message, point_map_cloud
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import PointCloud2
 
+from data_association_ros import NEW
 from problem_factory import random_range_bearing_problem
+from ros_harness import cloud, correspondences, odometry
+from test_node import exchange, graph, set_parameters, settle  # noqa: F401 (graph: fixture)
 
 # a corridor of landmarks 2 m apart; the robot believes it is at the origin (pose std 1 cm,
 # 0.2 deg) but a wheel slip put it 0.4 m further and 3 deg turned
@@ -114,24 +116,22 @@ def test_recovery_keeps_the_plain_answer_or_pairs_min_new_more(seed, clutter, sl
         np.testing.assert_array_equal(result.assignment, plain.assignment)
 
 
-def test_the_association_node_pipeline_recovers_and_counts_it():
-    from builtin_interfaces.msg import Time
-    from std_msgs.msg import Header
-    header = Header(stamp=Time(sec=5), frame_id='map')
-    outputs = {}
-    for name, value in (('off', 0.0), ('on', 0.5)):
-        pipeline = AssociationPipeline(node_config('jcbb', {'recovery_position_std': value,
-                                                            'recovery_yaw_std': 0.1}))
-        pipeline.on_landmarks(point_map_cloud(header, IDS, MEANS, LANDMARK_COV))
-        pipeline.on_robot_pose(odometry_message(header, POSE.mean, POSE.covariance))
-        scan = slipped_scan()
-        points = np.zeros(len(scan), dtype=[(name, '<f4') for name in
-                                            ('x', 'y', 'cov_xx', 'cov_xy', 'cov_yy')])
-        points['x'], points['y'] = scan.values[:, 0], scan.values[:, 1]
-        points['cov_xx'] = points['cov_yy'] = NOISE[0, 0]
-        answer = pipeline.answer(array_to_cloud(
-            points, Header(stamp=header.stamp, frame_id='base_link')))
-        outputs[name] = (answer.association.assignment.tolist(),
-                         pipeline.statistics.key_values()['pose_recoveries'])
-    assert outputs['off'] == ([-1, -1, -1, -1], 0)
-    assert outputs['on'] == (IDS[SEEN].tolist(), 1)
+def test_the_node_recovers_over_dds_after_a_runtime_switch(graph):
+    """association_node on a real rclpy graph: the slipped scan is all NEW, then (parameters
+    set at run time) the true pairs, counted in the node's statistics."""
+    graph.publisher(PointCloud2, 'landmarks').publish(cloud(
+        {'id': IDS, 'x': MEANS[:, 0], 'y': MEANS[:, 1], 'cov_xx': LANDMARK_COV[:, 0, 0],
+         'cov_xy': LANDMARK_COV[:, 0, 1], 'cov_yy': LANDMARK_COV[:, 1, 1]}, 5.0))
+    graph.publisher(Odometry, 'robot_pose').publish(odometry(*POSE.mean, POSE.covariance, 5.0))
+    settle(graph)
+    scan = slipped_scan()
+    msg = cloud({'x': scan.values[:, 0], 'y': scan.values[:, 1],
+                 'cov_xx': np.full(len(scan), NOISE[0, 0]), 'cov_xy': np.zeros(len(scan)),
+                 'cov_yy': np.full(len(scan), NOISE[1, 1])}, 5.0, 'base_link')
+    assert set_parameters(graph, algorithm='jcbb')[0].successful
+    assert correspondences(exchange(graph, msg))['landmark'].tolist() == [NEW] * len(SEEN)
+    assert all(r.successful for r in set_parameters(graph, recovery_position_std=0.5,
+                                                    recovery_yaw_std=0.1))
+    assert correspondences(exchange(graph, msg))['landmark'].tolist() == IDS[SEEN].tolist()
+    assert graph.node.statistics.pose_recoveries == 1
+    assert not set_parameters(graph, recovery_position_std=-0.1)[0].successful
