@@ -5,6 +5,8 @@ matching, adapters, the core) is AssociationPipeline's.  No input is ever fatal.
 """
 from __future__ import annotations
 
+import time
+from collections import deque
 from typing import Optional
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -21,6 +23,9 @@ from .core import InvalidInputError
 from .node_parameters import NODE_PARAMETERS, check_combination
 from .parameterized_node import ParameterizedNode, spin
 from .pipeline import AssociationPipeline
+
+MAX_WAITING = 10
+"""Observation messages waiting for their pose; beyond, the oldest is answered at once."""
 
 
 class AssociationNode(ParameterizedNode):
@@ -43,7 +48,7 @@ class AssociationNode(ParameterizedNode):
             self.create_subscription(PoseArray, 'landmarks', self.pipeline.on_pose_array, qos)
         else:
             self.create_subscription(PointCloud2, 'landmarks', self.pipeline.on_landmarks, qos)
-        self.create_subscription(Odometry, 'robot_pose', self.pipeline.on_robot_pose, qos)
+        self.create_subscription(Odometry, 'robot_pose', self._on_robot_pose, qos)
         self.create_subscription(Float64MultiArray, 'state_covariance',
                                  self.pipeline.on_state_covariance, qos)
         self.create_subscription(Odometry, 'odometry', self.pipeline.on_odometry, qos)
@@ -60,6 +65,8 @@ class AssociationNode(ParameterizedNode):
                                                    'estimated_transform', 10)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.create_timer(config['diagnostics_period'], self.publish_diagnostics)
+        self._waiting: deque = deque()   # (observation message, wall time it arrived)
+        self.create_timer(0.05, self._answer_waiting)
         self.get_logger().info(f'association_node ready: algorithm {config["algorithm"]}, '
                                f'measurement_model {config["measurement_model"]}')
 
@@ -68,7 +75,31 @@ class AssociationNode(ParameterizedNode):
         """Counters and latency (AssociationStatistics)."""
         return self.pipeline.statistics
 
+    def _on_robot_pose(self, msg: Odometry) -> None:
+        self.pipeline.on_robot_pose(msg)
+        self._answer_waiting()
+
     def _on_observations(self, msg: PointCloud2) -> None:
+        if self._waiting or self.pipeline.inputs_pending(msg):
+            self._waiting.append((msg, time.monotonic()))   # keeps the arrival order
+            if len(self._waiting) > MAX_WAITING:
+                self._answer(self._waiting.popleft()[0])
+            self._answer_waiting()
+            return
+        self._answer(msg)
+
+    def _answer_waiting(self) -> None:
+        """Answer the waiting observation messages, oldest first, whose pose has come (or
+        whose wait is over)."""
+        while self._waiting:
+            msg, since = self._waiting[0]
+            if self.pipeline.inputs_pending(msg) and \
+                    time.monotonic() - since < self.config['pose_wait']:
+                return
+            self._waiting.popleft()
+            self._answer(msg)
+
+    def _answer(self, msg: PointCloud2) -> None:
         answer = self.pipeline.answer(msg)
         if answer is None:
             return

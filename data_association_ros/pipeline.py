@@ -132,6 +132,20 @@ class AssociationPipeline:
         except INPUT_ERRORS as error:
             self._invalid('state_covariance', error)
 
+    def inputs_pending(self, msg) -> bool:
+        """True when the robot pose of this observation message may still be on its way: poses
+        arrive, but none within pose_tolerance of its stamp and none newer yet (DDS does not
+        order messages across topics: a SLAM node's pose can arrive after the scan it
+        precedes)."""
+        newest = self.pose_history.newest_stamp()
+        if newest is None:
+            return False
+        try:
+            stamp = stamp_ns(msg.header)
+        except (AttributeError, TypeError, ValueError):
+            return False
+        return newest < stamp - int(self.config['pose_tolerance'] * NS_PER_S)
+
     def answer(self, msg) -> Optional[Answer]:
         """The outputs for an observation PointCloud2, or None when it is skipped or invalid."""
         started = time.perf_counter()

@@ -29,6 +29,10 @@ class StampedBuffer(Generic[Item]):
         if len(self._stamps) > self.capacity:
             del self._stamps[0], self._items[0]
 
+    def newest_stamp(self) -> Optional[int]:
+        """The newest stamp held [ns], None when empty."""
+        return self._stamps[-1] if self._stamps else None
+
     def latest_not_after(self, stamp_ns: int, max_age_ns: int) -> tuple[Optional[Item], str]:
         """(newest item stamped <= stamp_ns and >= stamp_ns - max_age_ns, '') or (None, why)."""
         if not self._stamps:

@@ -367,3 +367,25 @@ def test_when_landmarks_stop_the_last_map_serves_until_max_landmark_age(graph):
         answered.append(len(graph.received['correspondences']) > before)
     assert answered == [True] * 4 + [False] * 4  # ages 0.25-1.0 s answered, 1.25-2.0 s not
     assert graph.node.statistics.skipped['no_landmarks'] == 4
+
+
+def test_a_scan_waits_for_its_late_pose_and_not_longer_than_pose_wait(graph):
+    """DDS does not order topics: a pose published before the scan may arrive after it."""
+    publish_map(graph, stamp=6.0)
+    variance = np.eye(3) * 1e-4
+    graph.publisher(Odometry, 'robot_pose').publish(odometry(*POSE, variance, 5.9))
+    settle(graph)
+    scan, truth = observation_clouds(6.0)['point_robot']
+    graph.publisher(PointCloud2, 'observations').publish(scan)
+    settle(graph, 0.3)
+    assert graph.received['correspondences'] == []       # waiting, not skipped
+    graph.publisher(Odometry, 'robot_pose').publish(odometry(*POSE, variance, 6.0))
+    reply = wait_reply(graph, 'correspondences', 1)
+    assert correspondences(reply[-1])['landmark'].tolist() == truth.tolist()
+    assert graph.node.statistics.skipped['no_pose'] == 0
+    # a pose that never comes: skipped once pose_wait is over
+    assert set_parameters(graph, pose_wait=0.3)[0].successful
+    late, _ = observation_clouds(6.5)['point_robot']
+    graph.publisher(PointCloud2, 'observations').publish(late)
+    assert graph.spin_until(lambda: graph.node.statistics.skipped['no_pose'] == 1, 3.0)
+    assert len(graph.received['correspondences']) == 1
