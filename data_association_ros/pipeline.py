@@ -133,16 +133,23 @@ class AssociationPipeline:
             self._invalid('state_covariance', error)
 
     def inputs_pending(self, msg) -> bool:
-        """True when the robot pose of this observation message may still be on its way: poses
-        arrive, but none within pose_tolerance of its stamp and none newer yet (DDS does not
+        """True when the robot pose this observation message needs (robot-frame models) may still
+        be on its way: poses arrive, but none within pose_tolerance of its stamp and none newer
+        yet (DDS does not
         order messages across topics: a SLAM node's pose can arrive after the scan it
         precedes)."""
         newest = self.pose_history.newest_stamp()
-        if newest is None:
+        if newest is None or self.config['measurement_model'] in ('point_map', 'box'):
             return False
         try:
             stamp = stamp_ns(msg.header)
-        except (AttributeError, TypeError, ValueError):
+            if self.config['measurement_model'] == 'auto':
+                landmarks, _ = self.landmark_history.latest_not_after(stamp, 2 ** 62)
+                names = {field.name for field in msg.fields}
+                if landmarks is not None and detect_model(
+                        names, msg.header.frame_id, landmarks.frame_id) in ('point_map', 'box'):
+                    return False    # a map-frame model needs no pose
+        except (AttributeError, TypeError, ValueError, InvalidInputError):
             return False
         return newest < stamp - int(self.config['pose_tolerance'] * NS_PER_S)
 

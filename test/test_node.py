@@ -389,3 +389,13 @@ def test_a_scan_waits_for_its_late_pose_and_not_longer_than_pose_wait(graph):
     graph.publisher(PointCloud2, 'observations').publish(late)
     assert graph.spin_until(lambda: graph.node.statistics.skipped['no_pose'] == 1, 3.0)
     assert len(graph.received['correspondences']) == 1
+
+
+def test_a_map_frame_scan_does_not_wait_for_a_pose(graph):
+    assert set_parameters(graph, pose_wait=30.0)[0].successful
+    publish_map(graph, stamp=6.0)
+    graph.publisher(Odometry, 'robot_pose').publish(odometry(*POSE, np.eye(3) * 1e-4, 5.0))
+    settle(graph)
+    scan, truth = observation_clouds(6.0)['point_map']
+    reply = exchange(graph, scan)          # within wait_reply's 5 s, far below pose_wait
+    assert correspondences(reply)['landmark'].tolist() == truth.tolist()
