@@ -13,6 +13,7 @@ from .core import InvalidInputError, available_algorithms
 from .core.associators import REGISTRY
 from .core.candidates import check_confirmation
 from .core.parameters import ParameterSpec
+from .core.pose_recovery import RECOVERY_PARAMETERS
 
 MULTI_HYPOTHESIS = 'multi_hypothesis'
 MEASUREMENT_MODELS = ('auto', 'point_map', 'point_robot', 'range_bearing', 'box')
@@ -100,18 +101,7 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
                   'robot pose\'s uncertainty (true) or with the observation noise alone (false: '
                   'when the pose error is common to consecutive scans, as in a SLAM filter)',
                   spec=ParameterSpec('candidate_pose_uncertainty', True, '', kind=bool)),
-    NodeParameter('recovery_position_std', 0.0,
-                  'when most of a scan would start new landmarks, associate it again with this '
-                  'much more robot position noise [m] (a motion outlier); 0 with '
-                  'recovery_yaw_std 0: off', spec=ParameterSpec(
-                      'recovery_position_std', 0.0, '', low=0.0, high=1e3)),
-    NodeParameter('recovery_yaw_std', 0.0, 'the heading noise [rad] added in that second '
-                  'association', spec=ParameterSpec('recovery_yaw_std', 0.0, '', low=0.0,
-                                                    high=10.0)),
-    NodeParameter('recovery_min_new', 2, 'a scan is associated again when at least this many '
-                  'observations are NEW (and no fewer than the paired ones); the second answer '
-                  'is kept when it pairs this many more', spec=ParameterSpec(
-                      'recovery_min_new', 2, '', kind=int, low=1, high=1000)),
+    *(_from_spec(spec) for spec in RECOVERY_PARAMETERS),
     NodeParameter('reevaluation_window', 5, 'multi_hypothesis: past steps re-evaluated and '
                   'published on past_associations', spec=ParameterSpec(
                       'reevaluation_window', 5, '', kind=int, low=1, high=1000)),

@@ -18,16 +18,31 @@ import numpy as np
 
 from .api import associate
 from .errors import InvalidInputError
+from .parameters import ParameterSpec
 from .types import NEW, Association, Landmarks, Observations, RobotPose
 
 RECOVERED = 'pose_recovered'
 """Association.extras key: True when the answer comes from the widened second pass."""
 
+POSITION_STD = ParameterSpec(
+    'recovery_position_std', 0.0, 'when most of a scan would start new landmarks, associate it '
+    'again with this much more robot position noise [m] (a motion outlier); 0 with '
+    'recovery_yaw_std 0: off', low=0.0, high=1e3)
+YAW_STD = ParameterSpec(
+    'recovery_yaw_std', 0.0, 'the heading noise [rad] added in that second association',
+    low=0.0, high=10.0)
+MIN_NEW = ParameterSpec(
+    'recovery_min_new', 2, 'a scan is associated again when at least this many observations '
+    'are NEW (and no fewer than the paired ones); the second answer is kept when it pairs this '
+    'many more', kind=int, low=1, high=1000)
+RECOVERY_PARAMETERS = (POSITION_STD, YAW_STD, MIN_NEW)
+"""The settings of PoseRecovery as parameters (the association node declares these)."""
+
 
 @dataclasses.dataclass(frozen=True)
 class PoseRecovery:
-    """position_std [m], yaw_std [rad]: the extra pose noise of the second pass (0, 0: off);
-    min_new: a scan is retried when at least this many observations are NEW and they are at
+    """position_std [m], yaw_std [rad]: the extra pose noise of the second pass (0, 0: off;
+    checked as recovery_position_std, recovery_yaw_std); min_new (recovery_min_new): a scan is retried when at least this many observations are NEW and they are at
     least as many as the paired ones, and the retry is kept when it pairs this many more."""
 
     position_std: float = 0.0
@@ -35,12 +50,11 @@ class PoseRecovery:
     min_new: int = 2
 
     def __post_init__(self) -> None:
-        for name in ('position_std', 'yaw_std'):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and 0.0 <= value < float('inf')):
-                raise InvalidInputError(f'{name}: expected a finite value >= 0, got {value!r}')
-        if not (isinstance(self.min_new, int) and self.min_new >= 1):
-            raise InvalidInputError(f'min_new: expected an integer >= 1, got {self.min_new!r}')
+        if not isinstance(self.min_new, int):
+            raise InvalidInputError(f'{MIN_NEW.name}: expected an integer, got {self.min_new!r}')
+        for attribute, spec in (('position_std', POSITION_STD), ('yaw_std', YAW_STD),
+                                ('min_new', MIN_NEW)):
+            spec.check(getattr(self, attribute))
 
     @property
     def enabled(self) -> bool:
