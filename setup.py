@@ -30,11 +30,11 @@ setup(
                     'benchmarks': ['matplotlib', 'stonesoup'], 'mot': ['trackeval']},
     entry_points={
         'console_scripts': [
-            'association_node = data_association_ros.node:main',
-            'box_tracker_node = data_association_ros.box_tracker_node:main',
-            'ekf_slam_node = data_association_ros.ekf_slam_node:main',
+            'association_node = data_association_ros.nodes.association_node:main',
+            'box_tracker_node = data_association_ros.nodes.box_tracker_node:main',
+            'ekf_slam_node = data_association_ros.nodes.ekf_slam_node:main',
             'da_slam_eval = data_association_ros.bag.slam_eval:main',
-            'lidar_tracker_node = data_association_ros.lidar_tracker_node:main',
+            'lidar_tracker_node = data_association_ros.nodes.lidar_tracker_node:main',
             'da_lidar_eval = data_association_ros.bag.lidar_eval:main',
             'da_make_mot_bag = data_association_ros.bag.mot:make_main',
             'da_mot_eval = data_association_ros.bag.mot:eval_main',

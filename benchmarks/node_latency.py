@@ -143,7 +143,7 @@ def main() -> None:
     here = os.path.abspath(__file__)
     servers = [('bare rclpy echo', [sys.executable, here, '--echo', '--observations',
                                     str(args.observations)])]
-    servers += [(name, [sys.executable, '-m', 'data_association_ros.node', '--ros-args', '-p',
+    servers += [(name, [sys.executable, '-m', 'data_association_ros.nodes.association_node', '--ros-args', '-p',
                         f'algorithm:={name}'])
                 for name in args.algorithms.split(',')]
     print(f'K={args.observations} observations, N={args.landmarks} landmarks, '

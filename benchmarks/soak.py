@@ -65,7 +65,7 @@ def stamp_of(k: int) -> Header:
 def soak(algorithm: str, rate: float, args, index: int) -> dict:
     """One run; see the module docstring."""
     namespace = f'/soak{index}'
-    command = [sys.executable, '-m', 'data_association_ros.node', '--ros-args',
+    command = [sys.executable, '-m', 'data_association_ros.nodes.association_node', '--ros-args',
                '-r', f'__ns:={namespace}', '-p', f'algorithm:={algorithm}',
                '-p', 'max_landmark_age:=1000000.0', '-p', 'pose_tolerance:=1000000.0',
                '-p', 'diagnostics_period:=0.5']

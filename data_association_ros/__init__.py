@@ -1,6 +1,6 @@
 """data_association_ros: which observations belong to which landmarks.
 
-The public API is the ROS-free core; the node lives in data_association_ros.node.
+The public API is the ROS-free core; the node lives in data_association_ros.nodes.association_node.
 
 BLAS runs single-threaded unless OPENBLAS_NUM_THREADS / OMP_NUM_THREADS say otherwise (set
 before numpy is first imported): the per-scan matrices are small, and OpenBLAS threads on a busy

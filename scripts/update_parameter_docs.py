@@ -1,4 +1,4 @@
-"""Rewrite config/association.yaml and the README's parameter tables from the declarations
+"""Rewrite config/association.yaml and the parameter tables of the README and docs/ pages from the declarations
 (association_node, ekf_slam_node, box_tracker_node, lidar_tracker_node).
 
 Run after changing a parameter: python scripts/update_parameter_docs.py (the tests check that
@@ -9,16 +9,18 @@ from __future__ import annotations
 import pathlib
 import re
 
-from data_association_ros.node_parameters import NODE_PARAMETERS
+from data_association_ros.pipelines.parameters import NODE_PARAMETERS
 from data_association_ros.bag.parameter_arguments import float_text
-from data_association_ros.box_tracker_node import TRACKER_PARAMETERS
-from data_association_ros.lidar_tracker_node import LIDAR_NODE_PARAMETERS
-from data_association_ros.slam_pipeline import SLAM_PARAMETERS
+from data_association_ros.nodes.box_tracker_node import TRACKER_PARAMETERS
+from data_association_ros.nodes.lidar_tracker_node import LIDAR_NODE_PARAMETERS
+from data_association_ros.pipelines.slam import SLAM_PARAMETERS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-TABLES = (('parameters', NODE_PARAMETERS), ('slam-parameters', SLAM_PARAMETERS),
-          ('box-parameters', TRACKER_PARAMETERS), ('lidar-parameters', LIDAR_NODE_PARAMETERS))
-"""README marker name -> the declarations of its table."""
+TABLES = (('parameters', NODE_PARAMETERS, 'README.md'),
+          ('slam-parameters', SLAM_PARAMETERS, 'docs/slam.md'),
+          ('box-parameters', TRACKER_PARAMETERS, 'docs/mot.md'),
+          ('lidar-parameters', LIDAR_NODE_PARAMETERS, 'docs/lidar.md'))
+"""(marker name, the declarations of its table, the page that holds it)."""
 
 
 def yaml_value(value) -> str:
@@ -52,12 +54,12 @@ def readme_table(parameters=NODE_PARAMETERS) -> str:
 
 def main() -> None:
     (ROOT / 'config' / 'association.yaml').write_text(config_text())
-    readme = (ROOT / 'README.md').read_text()
-    for name, parameters in TABLES:
+    for name, parameters, page in TABLES:
+        text = (ROOT / page).read_text()
         begin, end = f'<!-- {name}:begin -->', f'<!-- {name}:end -->'
         pattern = re.compile(re.escape(begin) + '.*?' + re.escape(end), re.S)
-        readme = pattern.sub(lambda _: f'{begin}\n{readme_table(parameters)}\n{end}', readme)
-    (ROOT / 'README.md').write_text(readme)
+        text = pattern.sub(lambda _: f'{begin}\n{readme_table(parameters)}\n{end}', text)
+        (ROOT / page).write_text(text)
 
 
 if __name__ == '__main__':

@@ -11,7 +11,7 @@ from data_association_ros.bag.evaluate import (bag_algorithms, evaluate_offline,
 from data_association_ros.bag.offline import node_config, run_offline
 from data_association_ros.bag.reader import BagReader
 from data_association_ros.bag.replay import bag_parameters, replay, write_recording
-from data_association_ros.pipeline import stamp_ns
+from data_association_ros.pipelines.association import stamp_ns
 from msg_adapters import cloud_to_array
 
 BAGS = Path(__file__).resolve().parents[1] / 'bags'

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from data_association_ros.bag.offline import node_config
-from data_association_ros.pipeline import AssociationPipeline
+from data_association_ros.pipelines.association import AssociationPipeline
 from message_fuzz import (SCALE, float_arrays, odometries, plausible_clouds, pose_arrays,
                           raw_clouds)
 from msg_adapters import cloud_to_array

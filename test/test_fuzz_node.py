@@ -10,7 +10,7 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Float64MultiArray
 
-from data_association_ros.node import AssociationNode
+from data_association_ros.nodes.association_node import AssociationNode
 from message_fuzz import SCALE, float_arrays, odometries, plausible_clouds, raw_clouds
 from ros_harness import Graph, cloud, correspondences, odometry
 

@@ -6,7 +6,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from data_association_ros.bag.slam_run import slam_config
-from data_association_ros.slam_pipeline import SlamPipeline
+from data_association_ros.pipelines.slam import SlamPipeline
 from message_fuzz import NUMBERS, SCALE, headers, odometries, plausible_clouds, raw_clouds
 from msg_adapters import array_to_cloud, cloud_to_array
 from msg_adapters.outputs import CORRESPONDENCE_DTYPE, NEW_LANDMARK_DTYPE

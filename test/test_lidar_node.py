@@ -10,7 +10,7 @@ from data_association_ros.bag.lidar_eval import (BAG, estimate_from_tracks, read
                                                  run_offline, score)
 from data_association_ros.bag.reader import BagReader
 from data_association_ros.core.lidar import TrackerConfig
-from data_association_ros.lidar_tracker_node import LidarTrackerNode
+from data_association_ros.nodes.lidar_tracker_node import LidarTrackerNode
 from msg_adapters import cloud_to_array
 from ros_harness import Graph, cloud, wait_reply
 from test_node import set_parameters

@@ -22,7 +22,7 @@ from sensor_msgs.msg import PointCloud2
 from data_association_ros.bag.mot import (BAG, DATA, evaluate, make_mot_bag, read_mot_bag,
                                           track)
 from data_association_ros.bag.reader import BagReader
-from data_association_ros.box_tracker_node import BoxTrackerNode
+from data_association_ros.nodes.box_tracker_node import BoxTrackerNode
 from data_association_ros.core.tracking import BoxTracker
 from msg_adapters import array_to_cloud, cloud_to_array
 from ros_harness import Graph, header

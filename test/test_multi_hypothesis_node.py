@@ -12,7 +12,7 @@ from data_association_ros.bag import topics
 from data_association_ros.bag.offline import node_config, offline_answers
 from data_association_ros.bag.reader import BagReader
 from data_association_ros.bag.replay import bag_parameters
-from data_association_ros.node import AssociationNode
+from data_association_ros.nodes.association_node import AssociationNode
 from msg_adapters import cloud_to_array
 from rclpy.parameter import Parameter
 from ros_harness import Graph

@@ -15,7 +15,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 
 from data_association_ros import (NEW, Landmarks, Observations, RobotPose,
                                   associate)
-from data_association_ros.node import AssociationNode
+from data_association_ros.nodes.association_node import AssociationNode
 from ros_harness import Graph, cloud, correspondences, header, odometry, wait_reply
 
 LANDMARKS = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]])
@@ -282,7 +282,7 @@ def test_robot_model_without_pose_is_skipped_then_answered(graph):
 def test_executable_answers_over_dds():
     env = dict(os.environ)
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    process = subprocess.Popen([sys.executable, '-m', 'data_association_ros.node', '--ros-args',
+    process = subprocess.Popen([sys.executable, '-m', 'data_association_ros.nodes.association_node', '--ros-args',
                                 '-p', 'algorithm:=jcbb', '-r', '__ns:=/da_test'], env=env,
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     g = Graph(namespace='/da_test')

@@ -5,7 +5,7 @@ import xml.etree.ElementTree as ET
 
 import yaml
 
-from data_association_ros.node_parameters import NODE_PARAMETERS
+from data_association_ros.pipelines.parameters import NODE_PARAMETERS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -34,9 +34,8 @@ def test_generated_parameter_docs_are_current():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     assert (ROOT / 'config' / 'association.yaml').read_text() == module.config_text()
-    readme = (ROOT / 'README.md').read_text()
-    for name, parameters in module.TABLES:   # association, ekf_slam, box and lidar tracker
-        assert module.readme_table(parameters) in readme, name
+    for name, parameters, page in module.TABLES:   # association, ekf_slam, box, lidar tracker
+        assert module.readme_table(parameters) in (ROOT / page).read_text(), name
 
 
 def test_package_xml_and_setup_cfg():

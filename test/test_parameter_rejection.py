@@ -2,7 +2,7 @@
 a reason, over the real SetParameters service, and the configuration in force is unchanged."""
 import math
 
-from data_association_ros.node_parameters import NODE_PARAMETERS
+from data_association_ros.pipelines.parameters import NODE_PARAMETERS
 from test_node import graph, set_parameters  # noqa: F401  (the fixture)
 
 

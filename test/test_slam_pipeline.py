@@ -12,8 +12,8 @@ from msg_adapters.outputs import CORRESPONDENCE_DTYPE
 from data_association_ros.bag import topics
 from data_association_ros.bag.offline import node_config
 from data_association_ros.bag.slam_run import read_inputs, run_offline, slam_config
-from data_association_ros.pipeline import AssociationPipeline, stamp_ns
-from data_association_ros.slam_pipeline import SlamPipeline
+from data_association_ros.pipelines.association import AssociationPipeline, stamp_ns
+from data_association_ros.pipelines.slam import SlamPipeline
 
 BAGS = Path(__file__).resolve().parents[1] / 'bags'
 TTK = BAGS / 'ttk4250_simulated'
@@ -224,7 +224,7 @@ def test_new_landmarks_once_per_scan_and_late_ones_keep_their_origin(ttk_steps):
 
 
 def test_odometry_without_scans_is_folded(monkeypatch, ttk_steps):
-    import data_association_ros.slam_pipeline as module
+    import data_association_ros.pipelines.slam as module
     monkeypatch.setattr(module, 'MAX_ODOMETRY_QUEUE', 3)
     origin, steps = ttk_steps
     slam = SlamPipeline(slam_config('ground_truth', {}))

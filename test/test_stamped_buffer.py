@@ -1,5 +1,5 @@
 """Time matching: newest not newer within the age limit; nearest within the tolerance."""
-from data_association_ros.stamped_buffer import StampedBuffer
+from data_association_ros.pipelines.stamped_buffer import StampedBuffer
 
 
 def test_latest_not_after_and_age_limit():

@@ -24,7 +24,7 @@ import numpy as np
 
 from msg_adapters import cloud_to_array
 
-from ..pipeline import stamp_ns
+from ..pipelines.association import stamp_ns
 from . import topics
 from .offline import node_config, offline_answers, truth_by_stamp, truth_positions_by_stamp
 from .parameter_arguments import parse_assignments

@@ -180,7 +180,7 @@ def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0) -> list[Es
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import LaserScan, PointCloud2
 
-    from ..lidar_tracker_node import LidarTrackerNode
+    from ..nodes.lidar_tracker_node import LidarTrackerNode
     from .ros_environment import close_graph, open_graph
     context, player, executor = open_graph('da_lidar_eval')
     reliable = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)

@@ -8,8 +8,8 @@ import numpy as np
 from msg_adapters import cloud_to_array
 
 from ..core import InvalidInputError
-from ..node_parameters import BY_NAME, NODE_PARAMETERS, check_combination
-from ..pipeline import AssociationPipeline, stamp_ns
+from ..pipelines.parameters import BY_NAME, NODE_PARAMETERS, check_combination
+from ..pipelines.association import AssociationPipeline, stamp_ns
 from . import topics
 
 

@@ -6,7 +6,7 @@ from typing import Any, Iterable, Mapping
 import yaml
 
 from ..core import InvalidInputError
-from ..node_parameters import BY_NAME
+from ..pipelines.parameters import BY_NAME
 
 
 def parse_assignments(assignments: Iterable[str],

@@ -24,7 +24,7 @@ def association_node_command(algorithm: str, parameters: Mapping[str, Any]) -> l
     """The command line of an association_node process with `parameters` and a deep input
     queue (the tools publish faster than a live sensor)."""
     from .parameter_arguments import ros_arguments
-    return [sys.executable, '-m', 'data_association_ros.node', '--ros-args',
+    return [sys.executable, '-m', 'data_association_ros.nodes.association_node', '--ros-args',
             '-p', f'algorithm:={algorithm}', *ros_arguments(parameters), '-p', 'qos_depth:=1000']
 
 

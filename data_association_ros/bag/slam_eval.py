@@ -23,7 +23,7 @@ import numpy as np
 
 from msg_adapters import cloud_to_array, pose_from_odometry
 
-from ..pipeline import stamp_ns
+from ..pipelines.association import stamp_ns
 from . import topics
 from .datasets.slam_bags import SLAM_PARAMETERS_KEY, TRUTH_KIND_KEY
 from .evaluate import DEFAULT_ALGORITHMS
@@ -32,7 +32,7 @@ from .parameter_arguments import parse_assignments
 from .reader import BagError, BagReader
 from .replay import bag_parameters
 from .rosbag2_metadata import read_custom_data
-from ..slam_pipeline import SLAM_BY_NAME
+from ..pipelines.slam import SLAM_BY_NAME
 from .slam_run import MODES, bag_slam_parameters, read_inputs, run_live, run_offline
 from .slam_scoring import SlamTruth, score_run
 

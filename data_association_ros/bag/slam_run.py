@@ -22,8 +22,8 @@ import numpy as np
 
 from msg_adapters import cloud_to_array, pose_from_odometry
 
-from ..pipeline import AssociationPipeline, stamp_ns
-from ..slam_pipeline import SLAM_BY_NAME, SLAM_PARAMETERS, SlamPipeline
+from ..pipelines.association import AssociationPipeline, stamp_ns
+from ..pipelines.slam import SLAM_BY_NAME, SLAM_PARAMETERS, SlamPipeline
 from . import topics
 from .datasets.slam_bags import SLAM_PARAMETERS_KEY
 from .offline import node_config
@@ -139,7 +139,7 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
     log = tempfile.TemporaryFile()
     commands = [
         association_node_command(algorithm, association_parameters),
-        [sys.executable, '-m', 'data_association_ros.ekf_slam_node', '--ros-args',
+        [sys.executable, '-m', 'data_association_ros.nodes.ekf_slam_node', '--ros-args',
          *ros_arguments(slam_values, SLAM_BY_NAME)]]
     processes = [subprocess.Popen(c, stdout=log, stderr=subprocess.STDOUT) for c in commands]
     context, node, executor = open_graph('da_slam_run')

@@ -21,13 +21,13 @@ from msg_adapters import (PointCloudFormatError, array_to_cloud, association_mar
                           landmarks_from_pose_array, new_landmarks_cloud, observations_from_points,
                           pose_from_odometry, transform_message)
 
-from .core import NEW, Association, InvalidInputError, Landmarks, RobotPose
-from .core.candidates import CandidateManager, CandidateUpdate
-from .core.initialisation import observations_in_map
-from .core.models import MODELS
-from .core.pose_recovery import RECOVERED, PoseRecovery, associate_with_pose_recovery
+from ..core import NEW, Association, InvalidInputError, Landmarks, RobotPose
+from ..core.candidates import CandidateManager, CandidateUpdate
+from ..core.initialisation import observations_in_map
+from ..core.models import MODELS
+from ..core.pose_recovery import RECOVERED, PoseRecovery, associate_with_pose_recovery
 from .multi_hypothesis_stage import MultiHypothesisStage
-from .node_parameters import MULTI_HYPOTHESIS, algorithm_arguments
+from .parameters import MULTI_HYPOTHESIS, algorithm_arguments
 from .stamped_buffer import StampedBuffer
 from .statistics import AssociationStatistics
 

@@ -19,10 +19,10 @@ from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import diagnostics_message
 
-from .core import InvalidInputError
-from .node_parameters import NODE_PARAMETERS, check_combination
+from ..core import InvalidInputError
+from ..pipelines.association import AssociationPipeline
+from ..pipelines.parameters import NODE_PARAMETERS, check_combination
 from .parameterized_node import ParameterizedNode, spin
-from .pipeline import AssociationPipeline
 
 MAX_WAITING = 10
 """Observation messages waiting for their pose; beyond, the oldest is answered at once."""

@@ -9,11 +9,11 @@ import array
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from .core import InvalidInputError, available_algorithms
-from .core.associators import REGISTRY
-from .core.candidates import check_confirmation
-from .core.parameters import ParameterSpec
-from .core.pose_recovery import RECOVERY_PARAMETERS
+from ..core import InvalidInputError, available_algorithms
+from ..core.associators import REGISTRY
+from ..core.candidates import check_confirmation
+from ..core.parameters import ParameterSpec
+from ..core.pose_recovery import RECOVERY_PARAMETERS
 
 MULTI_HYPOTHESIS = 'multi_hypothesis'
 MEASUREMENT_MODELS = ('auto', 'point_map', 'point_robot', 'range_bearing', 'box')

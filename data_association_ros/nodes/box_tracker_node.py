@@ -16,11 +16,11 @@ from sensor_msgs.msg import PointCloud2
 
 from msg_adapters import PointCloudFormatError, array_to_cloud, cloud_to_array
 
-from .core import InvalidInputError
-from .core.associators import REGISTRY
-from .core.parameters import ParameterSpec
-from .core.tracking import BoxTracker
-from .node_parameters import BY_NAME, NodeParameter
+from ..core import InvalidInputError
+from ..core.associators import REGISTRY
+from ..core.parameters import ParameterSpec
+from ..core.tracking import BoxTracker
+from ..pipelines.parameters import BY_NAME, NodeParameter
 from .parameterized_node import ParameterizedNode, spin
 
 TRACK_DTYPE = np.dtype([('id', '<i4'), ('x', '<f4'), ('y', '<f4'), ('width', '<f4'),

@@ -14,9 +14,9 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .core import Association, InvalidInputError, Landmarks, Observations, RobotPose
-from .core.multi_hypothesis import HypothesisTree
-from .core.multi_hypothesis.motion import between
+from ..core import Association, InvalidInputError, Landmarks, Observations, RobotPose
+from ..core.multi_hypothesis import HypothesisTree
+from ..core.multi_hypothesis.motion import between
 
 HYPOTHESIS_DTYPE = np.dtype([('hypothesis', '<i4'), ('weight', '<f4'), ('x', '<f4'),
                              ('y', '<f4'), ('yaw', '<f4'), ('cov_xx', '<f4'), ('cov_xy', '<f4'),

@@ -5,7 +5,7 @@ from collections import Counter
 
 import numpy as np
 
-from .core import NEW, UNASSOCIATED
+from ..core import NEW, UNASSOCIATED
 
 
 class WarningThrottle:

@@ -12,8 +12,8 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from .core import InvalidInputError
-from .node_parameters import NodeParameter
+from ..core import InvalidInputError
+from ..pipelines.parameters import NodeParameter
 
 
 def descriptor(parameter: NodeParameter) -> ParameterDescriptor:

@@ -35,13 +35,13 @@ from msg_adapters import (PointCloudFormatError, cloud_to_array, covariance_mess
                           detect_model, observations_from_points, odometry_message,
                           point_map_cloud, pose_from_odometry)
 
-from .core import InvalidInputError, Observations
-from .core.models import MODELS
-from .core.parameters import ParameterSpec
-from .core.slam import EkfSlam, OdometryIncrements
-from .core.validation import check_covariance_matrix
-from .node_parameters import BY_NAME, NodeParameter
-from .pipeline import NS_PER_S, stamp_ns
+from ..core import InvalidInputError, Observations
+from ..core.models import MODELS
+from ..core.parameters import ParameterSpec
+from ..core.slam import EkfSlam, OdometryIncrements
+from ..core.validation import check_covariance_matrix
+from .association import NS_PER_S, stamp_ns
+from .parameters import BY_NAME, NodeParameter
 from .statistics import WarningThrottle
 
 INPUT_ERRORS = (InvalidInputError, PointCloudFormatError, ValueError)

@@ -25,10 +25,10 @@ from msg_adapters import PointCloudFormatError, diagnostics_message
 from msg_adapters.lidar import (boundaries_cloud, points_from_cloud, points_from_scan,
                                 track_markers, tracks_cloud)
 
-from .core import InvalidInputError
-from .core.lidar import PARAMETERS, LidarObjectTracker, TrackerConfig
-from .core.parameters import ParameterSpec
-from .node_parameters import NodeParameter
+from ..core import InvalidInputError
+from ..core.lidar import PARAMETERS, LidarObjectTracker, TrackerConfig
+from ..core.parameters import ParameterSpec
+from ..pipelines.parameters import NodeParameter
 from .parameterized_node import ParameterizedNode, spin
 
 RESTART_AFTER_S = 1.0

@@ -20,8 +20,8 @@ from std_msgs.msg import Float64MultiArray
 
 from msg_adapters import diagnostics_message
 
+from ..pipelines.slam import SLAM_PARAMETERS, SlamPipeline
 from .parameterized_node import ParameterizedNode, spin
-from .slam_pipeline import SLAM_PARAMETERS, SlamPipeline
 
 QOS_DEPTH = 100
 OUTPUT_TYPES = {'landmarks': PointCloud2, 'robot_pose': Odometry,
