@@ -12,7 +12,9 @@ import numpy as np
 from data_association_ros.core import InvalidInputError, Landmarks, Observations, RobotPose
 from data_association_ros.core.validation import check_covariance_matrix
 
-from .pointcloud import cloud_to_array
+from sensor_msgs.msg import PointField
+
+from .pointcloud import PointCloudFormatError, cloud_to_array
 
 MODEL_FIELDS = {
     'range_bearing': ('range', 'bearing'),
@@ -143,21 +145,47 @@ def pose_from_odometry(msg) -> RobotPose:
     return RobotPose([p.x, p.y, yaw], covariance[POSE_COVARIANCE_INDEX])
 
 
-def joint_covariance_from_array(msg) -> np.ndarray:
-    """Square matrix from a std_msgs/Float64MultiArray (layout dims, or n*n values), checked
-    finite, symmetric and positive semi-definite on arrival (a bad one never replaces a good
-    one)."""
-    data = np.asarray(msg.data, dtype=np.float64)
-    dims = [d.size for d in msg.layout.dim]
-    if len(dims) == 2 and dims[0] == dims[1] and dims[0] * dims[1] == data.size:
-        size = dims[0]
-    else:
-        size = int(round(np.sqrt(data.size)))
-        if size * size != data.size:
-            raise InvalidInputError(
-                f'state_covariance.data: {data.size} values is not a square matrix')
-    offset = msg.layout.data_offset
-    if offset:
-        raise InvalidInputError('state_covariance.layout.data_offset: must be 0')
-    return check_covariance_matrix(data.reshape(size, size), 'state_covariance')
-
+def state_covariance_from_cloud(msg) -> tuple[np.ndarray, np.ndarray]:
+    """(landmark ids (L,), joint covariance (n, n)) from a state_covariance PointCloud2 (fields
+    id, axis, row; see msg_adapters.state.STATE_COVARIANCE_FIELDS).  The matrix gets the checks
+    that cost O(n^2) on arrival (finite, symmetric, non-negative diagonal); positive
+    semi-definiteness is checked on the block an association uses."""
+    n = msg.height * msg.width
+    layout = {f.name: f for f in msg.fields}
+    wanted = {'id': (PointField.INT32, 1), 'axis': (PointField.INT32, 1),
+              'row': (PointField.FLOAT64, n)}
+    for name, (datatype, count) in wanted.items():
+        field = layout.get(name)
+        if field is None or field.datatype != datatype or field.count != count:
+            got = 'missing' if field is None else f'datatype {field.datatype}, count {field.count}'
+            raise PointCloudFormatError(
+                f'state_covariance.fields: {name!r} must be {"FLOAT64" if name == "row" else "INT32"}'
+                f' with count {count} (one point per row, {n} rows), got {got}')
+    if n < 3:
+        raise InvalidInputError(f'state_covariance: {n} rows, expected 3 pose rows and more')
+    if msg.is_bigendian:
+        raise PointCloudFormatError('state_covariance: big-endian data is not supported')
+    dtype = np.dtype({'names': ['id', 'axis', 'row'],
+                      'formats': ['<i4', '<i4', ('<f8', (n,))],
+                      'offsets': [layout['id'].offset, layout['axis'].offset,
+                                  layout['row'].offset], 'itemsize': msg.point_step})
+    if msg.point_step < dtype.itemsize or msg.row_step != msg.point_step * msg.width \
+            or len(msg.data) != msg.row_step * msg.height:
+        raise PointCloudFormatError(
+            f'state_covariance: data of {len(msg.data)} bytes does not hold {n} rows of '
+            f'point_step {msg.point_step}')
+    points = np.frombuffer(bytes(msg.data), dtype=dtype, count=n)
+    ids, axes = points['id'].astype(np.int64), points['axis'].astype(np.int64)
+    if not (np.all(ids[:3] == -1) and np.array_equal(axes[:3], [0, 1, 2])):
+        raise InvalidInputError('state_covariance.id: the first 3 rows must be the pose '
+                                '(id -1, axis 0, 1, 2)')
+    rest_ids, rest_axes = ids[3:], axes[3:]
+    d = int(rest_axes.max()) + 1 if len(rest_axes) else 2
+    if d < 1 or len(rest_ids) % d or not np.array_equal(
+            rest_axes, np.tile(np.arange(d), len(rest_ids) // d)) or np.any(
+            rest_ids.reshape(-1, d) != rest_ids.reshape(-1, d)[:, :1]):
+        raise InvalidInputError('state_covariance.id, axis: landmark rows must come as '
+                                '(id, 0), (id, 1), ... for each landmark')
+    landmark_ids = rest_ids[::d].copy()
+    matrix = check_covariance_matrix(np.array(points['row']), 'state_covariance')
+    return landmark_ids, matrix

@@ -1,14 +1,14 @@
-"""Estimator state -> messages: a pose as nav_msgs/Odometry, a joint covariance as
-std_msgs/Float64MultiArray, a point map as PointCloud2 (the ekf_slam_node's outputs, and the bag
+"""Estimator state -> messages: a pose as nav_msgs/Odometry, a joint covariance as a stamped
+PointCloud2 of its rows, a point map as PointCloud2 (the ekf_slam_node's outputs, and the bag
 tools' inputs)."""
 from __future__ import annotations
 
-import array
 from typing import Mapping, Optional
 
 import numpy as np
 from nav_msgs.msg import Odometry
-from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
+from sensor_msgs.msg import PointCloud2, PointField
+from std_msgs.msg import Header
 
 from .inputs import POSE_COVARIANCE_INDEX
 from .pointcloud import array_to_cloud
@@ -27,16 +27,34 @@ def odometry_message(header: Header, mean: np.ndarray, covariance: np.ndarray,
     return msg
 
 
-def covariance_message(matrix: np.ndarray) -> Float64MultiArray:
-    """A square matrix (n, n) as Float64MultiArray (row-major, layout dims rows and cols)."""
+STATE_COVARIANCE_FIELDS = ('id', 'axis', 'row')
+"""The fields of a state_covariance cloud: one point per row of the joint covariance of
+[x, y, yaw, landmark 0 (d rows), ...]: `id` (INT32: -1 for the pose rows, else the landmark's
+id), `axis` (INT32: 0, 1, 2 = x, y, yaw; 0 .. d-1 for a landmark), `row` (FLOAT64, count n =
+3 + L d: that row)."""
+POSE_ROW_ID = -1
+
+
+def state_covariance_cloud(header: Header, landmark_ids: np.ndarray, matrix: np.ndarray
+                           ) -> PointCloud2:
+    """The joint covariance (n, n) of [pose, landmarks `landmark_ids` (L,)] as a PointCloud2
+    with the landmarks message's header (see STATE_COVARIANCE_FIELDS)."""
     matrix = np.ascontiguousarray(matrix, dtype=np.float64)
-    size = matrix.shape[0]
-    data = array.array('d')
-    data.frombytes(matrix.tobytes())   # no per-element conversion for large maps
-    msg = Float64MultiArray(data=data)
-    msg.layout.dim = [MultiArrayDimension(label='rows', size=size, stride=size * size),
-                      MultiArrayDimension(label='cols', size=size, stride=size)]
-    return msg
+    n = matrix.shape[0]
+    count = len(landmark_ids)
+    d = (n - 3) // count if count else 2
+    points = np.zeros(n, dtype=[('id', '<i4'), ('axis', '<i4'), ('row', '<f8', (n,))])
+    points['id'][:3] = POSE_ROW_ID
+    points['axis'][:3] = np.arange(3)
+    points['id'][3:] = np.repeat(np.asarray(landmark_ids, dtype=np.int64), d)
+    points['axis'][3:] = np.tile(np.arange(d), count)
+    points['row'] = matrix
+    fields = [PointField(name='id', offset=0, datatype=PointField.INT32, count=1),
+              PointField(name='axis', offset=4, datatype=PointField.INT32, count=1),
+              PointField(name='row', offset=8, datatype=PointField.FLOAT64, count=n)]
+    step = points.dtype.itemsize
+    return PointCloud2(header=header, height=1, width=n, fields=fields, is_bigendian=False,
+                       point_step=step, row_step=step * n, is_dense=True, data=points.tobytes())
 
 
 def point_map_cloud(header: Header, ids: np.ndarray, means: np.ndarray,

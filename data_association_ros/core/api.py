@@ -7,6 +7,7 @@ from .associators import REGISTRY
 from .errors import InvalidInputError
 from .parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, resolve
 from .problem import AssociationProblem
+from .spatial_index import INDEX_MIN_LANDMARKS, landmark_index, search_radii
 from .types import Association, Landmarks, Observations, RobotPose
 
 
@@ -18,11 +19,18 @@ def available_algorithms() -> tuple[str, ...]:
 def associate(landmarks: Landmarks, observations: Observations, algorithm: str = 'mahalanobis_nn',
               pose: Optional[RobotPose] = None, state_covariance=None,
               gate_probability: float = GATE_PROBABILITY.default,
-              **algorithm_params) -> Association:
+              spatial_index: Optional[bool] = None, **algorithm_params) -> Association:
     """Associate K observations with N landmarks by `algorithm`.
 
     state_covariance: joint covariance ((3 + N d), (3 + N d)) of [x, y, yaw, landmark 0, ...] in
-    the order of `landmarks.ids`; None: blockdiag(pose covariance, landmark covariances).
+    the order of `landmarks.ids`; None: blockdiag(pose covariance, landmark covariances).  Only
+    the rows and columns of the pose and of the landmarks that can pass a gate are read (and
+    checked positive semi-definite); the whole matrix is checked finite, symmetric and with a
+    non-negative diagonal unless it came from check_covariance_matrix.
+    spatial_index: only the landmarks that can pass some observation's gate take part (exact,
+    see core/spatial_index.py; the answer is the same); None: for maps of at least
+    INDEX_MIN_LANDMARKS, True: always, False: never.  The index is built at the first call
+    and kept with the `landmarks` object for the next calls.
     Returns an Association whose assignment (K,) holds landmark ids, NEW or UNASSOCIATED.
     Raises InvalidInputError on bad input, unknown algorithm or bad parameters.
     """
@@ -46,4 +54,22 @@ def associate(landmarks: Landmarks, observations: Observations, algorithm: str =
         parameters.get(MIN_INNOVATION_VARIANCE.name, 0.0))
     if associator.needs_covariances:
         problem.require_covariances(algorithm)
-    return associator.run(problem, **parameters)
+    return associator.run(_local_problem(problem, associator, parameters, spatial_index),
+                          **parameters)
+
+
+def _local_problem(problem: AssociationProblem, associator, parameters: dict,
+                   spatial_index: Optional[bool]) -> AssociationProblem:
+    """The problem over the landmarks the associator's gate can accept (all of them without
+    an index)."""
+    n = len(problem.landmarks)
+    wanted = n >= INDEX_MIN_LANDMARKS if spatial_index is None else bool(spatial_index)
+    if associator.gate is None or not wanted or n == 0 or len(problem.observations) == 0:
+        problem.check_definite()
+        return problem
+    gate = associator.gate(problem.observations, parameters)
+    index = landmark_index(problem.landmarks, problem.state_covariance)
+    points, radius_of = search_radii(
+        problem.model.name, problem.observations, None if problem.pose is None else problem.pose.mean,
+        problem.pose_covariance, gate, problem.min_innovation_variance)
+    return problem.restricted(index.candidates(points, radius_of))

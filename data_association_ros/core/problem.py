@@ -15,8 +15,8 @@ import numpy as np
 from .errors import InvalidInputError
 from .models import MODELS, MeasurementModel
 from .types import Landmarks, Observations, RobotPose
-from .validation import (as_float_array, check_covariance_matrix, check_shape,
-                         is_checked_covariance)
+from .validation import (as_float_array, check_covariance_matrix, check_positive_semidefinite,
+                         check_shape, is_checked_covariance)
 
 
 def symmetric_quadratic_form(vectors: np.ndarray, matrices: np.ndarray) -> np.ndarray:
@@ -80,6 +80,28 @@ class AssociationProblem:
             check_shape(matrix, 'state_covariance', (size, size))
             self.state_covariance = check_covariance_matrix(matrix, 'state_covariance')
 
+    def check_definite(self) -> None:
+        """Raise unless the joint covariance in use is positive semi-definite (the blocks of
+        the landmarks of this problem: a restricted problem holds only the local block)."""
+        if self.state_covariance is not None:
+            check_positive_semidefinite(self.state_covariance, 'state_covariance')
+
+    def restricted(self, columns: np.ndarray) -> 'AssociationProblem':
+        """The same problem over the landmarks `columns` (sorted, (L,)) only, with the rows and
+        columns of the pose and of those landmarks of the joint covariance ((3 + L d)^2, the
+        only part read); its positive semi-definiteness is checked here."""
+        landmarks = self.landmarks.subset(columns)
+        local = None
+        if self.state_covariance is not None:
+            d = self.landmarks.dim
+            rows = np.concatenate([np.arange(3), (3 + d * np.asarray(columns, dtype=np.intp)[:, None]
+                                                  + np.arange(d)).ravel()])
+            local = self.state_covariance[np.ix_(rows, rows)]
+        problem = AssociationProblem(landmarks, self.observations, self.pose, local,
+                                     self.min_innovation_variance)
+        problem.check_definite()
+        return problem
+
     @property
     def sizes(self) -> tuple[int, int]:
         """(K observations, N landmarks)."""
@@ -116,6 +138,12 @@ class AssociationProblem:
     def innovations(self) -> np.ndarray:
         """nu_ij (K, N, m)."""
         return self.model.innovation(self.observations.values, self.predictions)
+
+    @property
+    def pose_covariance(self) -> np.ndarray:
+        """Covariance of the pose (3, 3): the joint covariance's block, else the pose's (zeros
+        without a pose)."""
+        return self._pose_covariance()
 
     def _pose_covariance(self) -> np.ndarray:
         if self.state_covariance is not None:

@@ -89,9 +89,22 @@ class Landmarks:
             raise InvalidInputError(
                 f'landmarks.ids[{indices[1]}]: duplicate id {duplicate} (also at index {indices[0]})')
         covariances = _covariance_stack(covariances, 'landmarks.covariances', count, means.shape[1])
-        object.__setattr__(self, 'ids', ids_array)
-        object.__setattr__(self, 'means', means)
-        object.__setattr__(self, 'covariances', covariances)
+        self._set(ids_array, means, covariances)
+
+    def _set(self, ids: np.ndarray, means: np.ndarray, covariances: Optional[np.ndarray]) -> None:
+        """Store the arrays read-only: a map is immutable, so what is derived from it once (its
+        spatial index) stays valid."""
+        for name, value in (('ids', ids), ('means', means), ('covariances', covariances)):
+            if value is not None:
+                value.flags.writeable = False
+            object.__setattr__(self, name, value)
+
+    def subset(self, columns: np.ndarray) -> 'Landmarks':
+        """The landmarks at `columns` (L,), in that order (already validated: no checks)."""
+        part = object.__new__(Landmarks)
+        part._set(self.ids[columns], self.means[columns],
+                  None if self.covariances is None else self.covariances[columns])
+        return part
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])

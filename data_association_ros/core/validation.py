@@ -54,6 +54,8 @@ def check_spd(matrices: np.ndarray, field: str) -> None:
 
 _CHECKED: 'weakref.WeakValueDictionary[int, np.ndarray]' = weakref.WeakValueDictionary()
 """Matrices check_covariance_matrix returned (read-only), so a second check is free."""
+_DEFINITE: 'weakref.WeakValueDictionary[int, np.ndarray]' = weakref.WeakValueDictionary()
+"""Checked matrices that check_positive_semidefinite has also factorised."""
 
 
 def is_checked_covariance(value) -> bool:
@@ -63,10 +65,10 @@ def is_checked_covariance(value) -> bool:
 
 
 def check_covariance_matrix(value, field: str) -> np.ndarray:
-    """A finite, symmetric, positive semi-definite square matrix (float64, read-only); eigenvalues
-    down to -1e-9 x (1 + max |entry|) are accepted, tested by Cholesky of the matrix plus twice
-    that.  A matrix this returned before passes at once (a large joint covariance is checked
-    once on arrival, not again by every associate() call)."""
+    """A finite, symmetric square matrix with a non-negative diagonal (float64, read-only): the
+    checks that cost O(n^2), made once on arrival.  Positive semi-definiteness is checked by
+    check_positive_semidefinite on the blocks actually used (a joint covariance of a large map
+    is never factorised whole).  A matrix this returned before passes at once."""
     if is_checked_covariance(value):
         return value
     matrix = as_float_array(value, field, 2)
@@ -74,11 +76,26 @@ def check_covariance_matrix(value, field: str) -> np.ndarray:
     scale = 1.0 + np.abs(matrix).max(initial=0.0)
     if np.abs(matrix - matrix.T).max(initial=0.0) > 1e-9 * scale:
         raise InvalidInputError(f'{field}: not symmetric')
+    diagonal = np.diagonal(matrix)
+    if np.any(diagonal < 0):
+        index = int(np.flatnonzero(diagonal < 0)[0])
+        raise InvalidInputError(f'{field}[{index}, {index}]: negative variance {diagonal[index]}')
+    matrix.flags.writeable = False
+    _CHECKED[id(matrix)] = matrix
+    return matrix
+
+
+def check_positive_semidefinite(matrix: np.ndarray, field: str) -> None:
+    """Raise unless the symmetric `matrix` is positive semi-definite: eigenvalues down to
+    -1e-9 x (1 + max |entry|) are accepted, tested by Cholesky of the matrix plus twice that.
+    Free for a checked matrix that passed before."""
+    if _DEFINITE.get(id(matrix)) is matrix and is_checked_covariance(matrix):
+        return
     if len(matrix):
+        scale = 1.0 + np.abs(matrix).max(initial=0.0)
         try:
             np.linalg.cholesky(matrix + 2e-9 * scale * np.eye(len(matrix)))
         except np.linalg.LinAlgError:
             raise InvalidInputError(f'{field}: not positive semi-definite') from None
-    matrix.flags.writeable = False
-    _CHECKED[id(matrix)] = matrix
-    return matrix
+    if is_checked_covariance(matrix):
+        _DEFINITE[id(matrix)] = matrix

@@ -39,7 +39,7 @@ from ..core import InvalidInputError, Observations
 from ..core.models import MODELS
 from ..core.parameters import ParameterSpec
 from ..core.slam import EkfSlam, OdometryIncrements
-from ..core.validation import check_covariance_matrix
+from ..core.validation import check_covariance_matrix, check_positive_semidefinite
 from .association import NS_PER_S, stamp_ns
 from .parameters import BY_NAME, NodeParameter
 from .statistics import WarningThrottle
@@ -403,7 +403,8 @@ class SlamPipeline:
         try:
             check_magnitude(mean, 'new_landmarks.x, y')
             check_magnitude(cov, 'new_landmarks covariance')
-            check_covariance_matrix(cov, 'new_landmarks covariance')
+            check_positive_semidefinite(check_covariance_matrix(cov, 'new_landmarks covariance'),
+                                        'new_landmarks covariance')
         except InvalidInputError as error:
             self._invalid('new_landmarks', error)
             return

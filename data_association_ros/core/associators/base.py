@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable, Optional
 
 import numpy as np
 
+from ..gating import Gate
 from ..parameters import ParameterSpec
 from ..problem import AssociationProblem
-from ..types import NEW, UNASSOCIATED, Association
+from ..types import NEW, UNASSOCIATED, Association, Observations
 
 NO_LANDMARK = -1
 """Column index meaning 'no landmark chosen' inside associators."""
@@ -20,6 +21,9 @@ class Associator:
 
     `parameters` lists every keyword `run` accepts (besides the problem); `needs_covariances`
     says whether S must be computable; `models` are the measurement models it supports.
+    `gate(observations, parameters) -> Gate` bounds the pairs it can ever accept (its answer
+    depends on those pairs only), so the spatial index may drop every other landmark; None:
+    the associator sees every landmark.
     """
 
     name: str
@@ -29,6 +33,7 @@ class Associator:
     needs_covariances: bool = True
     models: tuple[str, ...] = ('point_map', 'point_robot', 'range_bearing', 'box')
     extras: tuple[str, ...] = field(default=())
+    gate: Optional[Callable[[Observations, dict[str, Any]], Gate]] = None
 
 
 def nearest_neighbours(cost: np.ndarray, gated: np.ndarray, one_to_one: bool) -> np.ndarray:

@@ -1,4 +1,5 @@
 """euclidean_nn: nearest landmark in measurement space, c_i = argmin_j |z_i - h_j| (seed 000, 1)."""
+from ..gating import euclidean_gate
 from ..parameters import ONE_TO_ONE, ParameterSpec
 from .base import Associator, nearest_neighbours, result
 
@@ -15,5 +16,6 @@ def run(problem, euclidean_gate: float, one_to_one: bool):
 
 
 ASSOCIATOR = Associator(
+    gate=lambda observations, p: euclidean_gate(p['euclidean_gate']),
     name='euclidean_nn', run=run, parameters=(EUCLIDEAN_GATE, ONE_TO_ONE), needs_covariances=False,
     summary='nearest neighbour by Euclidean distance in measurement space; ignores uncertainty')

@@ -2,7 +2,7 @@
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..gating import chi2_threshold
+from ..gating import chi2_threshold, nis_gate
 from ..parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE
 from .base import NO_LANDMARK, Associator, result
 
@@ -25,5 +25,6 @@ def run(problem, gate_probability: float, min_innovation_variance: float):
 
 
 ASSOCIATOR = Associator(
+    gate=lambda observations, p: nis_gate(observations, p['gate_probability']),
     name='gnn', run=run, parameters=(GATE_PROBABILITY, MIN_INNOVATION_VARIANCE),
     summary='global nearest neighbour: gate, then least-total-NIS one-to-one assignment')

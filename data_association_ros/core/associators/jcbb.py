@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from ..gating import chi2_threshold
+from ..gating import chi2_threshold, nis_gate
 from ..parameters import (GATE_PROBABILITY, JOINT_GATE_PROBABILITY, MIN_INNOVATION_VARIANCE,
                           ParameterSpec)
 from .base import NO_LANDMARK, Associator, result
@@ -74,6 +74,7 @@ def run(problem, gate_probability: float, joint_gate_probability: float,
 
 
 ASSOCIATOR = Associator(
+    gate=lambda observations, p: nis_gate(observations, p['gate_probability']),
     name='jcbb', run=run,
     parameters=(GATE_PROBABILITY, JOINT_GATE_PROBABILITY, MIN_INNOVATION_VARIANCE,
                 TIME_BUDGET_MS, MAX_NODES, CLASSIC_PRUNING, NIS_TIE_BREAK),

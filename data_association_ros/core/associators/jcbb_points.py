@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from ..errors import InvalidInputError
-from ..gating import chi2_threshold
+from ..gating import chi2_threshold, nis_gate
 from ..parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, ParameterSpec
 from ..transforms import estimate_rigid_transform, ransac_rigid_transform
 from .base import Associator
@@ -116,6 +116,7 @@ def run(problem, gate_probability: float, min_innovation_variance: float, time_b
 
 
 ASSOCIATOR = Associator(
+    gate=lambda observations, p: nis_gate(observations, p['gate_probability']),
     name='jcbb_points', run=run,
     parameters=(GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, TIME_BUDGET_MS, MAX_NODES,
                 MINIMAL_ITERATIONS, TRANSFORM, RANSAC_THRESHOLD),

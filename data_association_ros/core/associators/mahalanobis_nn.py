@@ -1,5 +1,5 @@
 """mahalanobis_nn: smallest NIS d2 = nu^T S^-1 nu with S = H P H^T + R (seed 000, 2; seed 004)."""
-from ..gating import chi2_threshold
+from ..gating import chi2_threshold, nis_gate
 from ..parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, ONE_TO_ONE
 from .base import Associator, nearest_neighbours, result
 
@@ -12,6 +12,7 @@ def run(problem, gate_probability: float, min_innovation_variance: float, one_to
 
 
 ASSOCIATOR = Associator(
+    gate=lambda observations, p: nis_gate(observations, p['gate_probability']),
     name='mahalanobis_nn', run=run,
     parameters=(GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, ONE_TO_ONE),
     summary='nearest neighbour by Mahalanobis distance inside the chi-square gate')

@@ -1,6 +1,7 @@
 """maximum_likelihood: largest N(nu; 0, S) per observation, new landmark below alpha (seed 000, 3)."""
 import math
 
+from ..gating import likelihood_gate
 from ..parameters import MIN_INNOVATION_VARIANCE, ONE_TO_ONE, ParameterSpec
 from .base import Associator, nearest_neighbours, result
 
@@ -20,6 +21,7 @@ def run(problem, new_landmark_likelihood: float, min_innovation_variance: float,
 
 
 ASSOCIATOR = Associator(
+    gate=lambda observations, p: likelihood_gate(observations, p['new_landmark_likelihood']),
     name='maximum_likelihood', run=run,
     parameters=(NEW_LANDMARK_LIKELIHOOD, MIN_INNOVATION_VARIANCE, ONE_TO_ONE),
     summary='largest Gaussian likelihood (NIS plus log det S); new landmark below alpha')

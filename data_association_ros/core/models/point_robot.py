@@ -17,8 +17,11 @@ class PointRobotModel(MeasurementModel):
 
     def predict(self, means, pose):
         rt = _rotation_transposed(pose[2])
-        delta = means - pose[:2]
-        h = delta @ rt.T
+        dx, dy = means[:, 0] - pose[0], means[:, 1] - pose[1]
+        # elementwise, not delta @ rt.T: a BLAS product rounds a row differently by its
+        # position in the batch, and a landmark's prediction must not depend on which other
+        # landmarks are predicted with it (the spatial index predicts a subset)
+        h = np.stack([rt[0, 0] * dx + rt[0, 1] * dy, rt[1, 0] * dx + rt[1, 1] * dy], axis=1)
         count = means.shape[0]
         h_landmark = np.broadcast_to(rt, (count, 2, 2)).copy()
         h_pose = np.empty((count, 2, 3))
