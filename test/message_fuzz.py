@@ -3,7 +3,7 @@
 PointCloud2 with arbitrary field sets, datatypes (valid and not), offsets (overlapping, past
 point_step), counts, point_step, width x height (0 and large), data shorter or longer than
 width * height * point_step, values with NaN, inf, huge and negative numbers, duplicate ids,
-any frame id and stamps in any order; PoseArray, Odometry and Float64MultiArray likewise.
+any frame id and stamps in any order; PoseArray, Odometry and state_covariance clouds likewise.
 """
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ from geometry_msgs.msg import Pose, PoseArray
 from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2, PointField
-from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
+from std_msgs.msg import Header
 
-from msg_adapters import array_to_cloud
+from msg_adapters import array_to_cloud, state_covariance_cloud
 
 SCALE = {'ci': 1, 'long': 10}[os.environ.get('DA_FUZZ_PROFILE', 'ci')]
 """Examples per test: the CI profile x 1, DA_FUZZ_PROFILE=long x 10 (scripts/fuzz.sh)."""
@@ -110,12 +110,28 @@ def odometries(draw) -> Odometry:
 
 
 @st.composite
-def float_arrays(draw) -> Float64MultiArray:
-    n = draw(st.integers(0, 12))
-    msg = Float64MultiArray(data=[float(v) for v in draw(st.lists(NUMBERS, min_size=n * n,
-                                                                  max_size=n * n + 2))])
-    rows = draw(st.sampled_from([n, n + 1, 0]))
-    msg.layout.dim = [MultiArrayDimension(label='rows', size=rows, stride=rows * n),
-                      MultiArrayDimension(label='cols', size=n, stride=n)][:draw(
-                          st.integers(0, 2))]
+def covariance_clouds(draw) -> PointCloud2:
+    """state_covariance clouds: well-formed ones (any values, any ids) and broken layouts."""
+    landmarks = draw(st.integers(0, 5))
+    n = 3 + 2 * landmarks
+    values = np.array(draw(st.lists(NUMBERS, min_size=n * n, max_size=n * n))).reshape(n, n)
+    if draw(st.booleans()):
+        values = values @ values.T     # symmetric PSD (or overflowing to inf)
+    ids = np.array(draw(st.lists(st.integers(-3, 5), min_size=landmarks, max_size=landmarks)),
+                   dtype=np.int64)
+    msg = state_covariance_cloud(Header(), ids, np.nan_to_num(values) if draw(st.booleans())
+                                 else values)
+    damage = draw(st.sampled_from(['none', 'count', 'datatype', 'data', 'width', 'axis']))
+    if damage == 'count':
+        msg.fields[2].count = max(0, n - 1)
+    elif damage == 'datatype':
+        msg.fields[0].datatype = 7
+    elif damage == 'data':
+        msg.data = bytes(msg.data)[:-draw(st.integers(1, 9))]
+    elif damage == 'width':
+        msg.width = draw(st.integers(0, n + 3))
+    elif damage == 'axis':
+        data = bytearray(msg.data)
+        data[4] = 9
+        msg.data = bytes(data)
     return msg

@@ -2,15 +2,14 @@
 import numpy as np
 import pytest
 from geometry_msgs.msg import Pose, PoseArray
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from data_association_ros import NEW, UNASSOCIATED, Association, InvalidInputError, RobotPose
 from data_association_ros.core.initialisation import observations_in_map
 from data_association_ros.core.candidates import CandidateManager
-from msg_adapters import (candidates_cloud, cloud_to_array, correspondences_cloud, detect_model,
-                          joint_covariance_from_array, landmarks_from_cloud,
+from msg_adapters import (PointCloudFormatError, candidates_cloud, cloud_to_array,
+                          correspondences_cloud, detect_model, landmarks_from_cloud,
                           landmarks_from_pose_array, new_landmarks_cloud, observations_from_cloud,
-                          pose_from_odometry)
+                          pose_from_odometry, state_covariance_cloud, state_covariance_from_cloud)
 from ros_harness import cloud, odometry
 
 
@@ -75,19 +74,41 @@ def test_detect_model_without_usable_fields():
         detect_model(('intensity',), 'a', 'a')
 
 
-def test_joint_covariance_from_layout_and_from_square_length():
-    matrix = np.array([[2.0, 0.5, 0.1], [0.5, 1.0, 0.2], [0.1, 0.2, 3.0]])
-    msg = Float64MultiArray(data=matrix.ravel().tolist())
-    np.testing.assert_array_equal(joint_covariance_from_array(msg), matrix)
-    msg.layout.dim = [MultiArrayDimension(size=3, stride=9), MultiArrayDimension(size=3, stride=3)]
-    np.testing.assert_array_equal(joint_covariance_from_array(msg), matrix)
-    with pytest.raises(InvalidInputError, match='not a square'):
-        joint_covariance_from_array(Float64MultiArray(data=[1.0, 2.0]))
-    for bad, reason in ((np.arange(9.0).reshape(3, 3), 'not symmetric'),
-                        (-np.eye(3), 'not positive semi-definite'),
-                        (np.diag([1.0, np.inf, 1.0]), 'not finite')):
+def test_state_covariance_cloud_round_trip_and_rejections():
+    """ids and matrix survive the cloud; a malformed layout or matrix is refused naming it."""
+    from std_msgs.msg import Header
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(7, 7))
+    matrix = a @ a.T
+    msg = state_covariance_cloud(Header(frame_id='map'), np.array([12, 40]), matrix)
+    assert [f.name for f in msg.fields] == ['id', 'axis', 'row'] and msg.width == 7
+    ids, back = state_covariance_from_cloud(msg)
+    assert list(ids) == [12, 40]
+    np.testing.assert_array_equal(back, matrix)
+    assert not back.flags.writeable           # checked once on arrival, read-only after
+    empty_ids, empty = state_covariance_from_cloud(
+        state_covariance_cloud(Header(), np.zeros(0, dtype=int), np.eye(3)))
+    assert len(empty_ids) == 0 and empty.shape == (3, 3)
+    for bad, reason in ((np.arange(49.0).reshape(7, 7), 'not symmetric'),
+                        (-np.eye(7), 'negative variance'),
+                        (np.diag([1.0, np.inf, 1, 1, 1, 1, 1]), 'not finite')):
         with pytest.raises(InvalidInputError, match=reason):
-            joint_covariance_from_array(Float64MultiArray(data=bad.ravel().tolist()))
+            state_covariance_from_cloud(state_covariance_cloud(Header(), np.array([1, 2]), bad))
+    broken = state_covariance_cloud(Header(), np.array([12, 40]), matrix)
+    broken.fields[2].count = 6
+    with pytest.raises(PointCloudFormatError, match="'row' must be FLOAT64 with count 7"):
+        state_covariance_from_cloud(broken)
+    broken = state_covariance_cloud(Header(), np.array([12, 40]), matrix)
+    broken.data = bytes(broken.data)[:-8]
+    with pytest.raises(PointCloudFormatError, match='does not hold 7 rows'):
+        state_covariance_from_cloud(broken)
+    rows = np.frombuffer(bytes(msg.data), dtype=[('id', '<i4'), ('axis', '<i4'),
+                                                  ('row', '<f8', (7,))]).copy()
+    rows['id'][4] = 41                            # landmark 12's y row under another id
+    tampered = state_covariance_cloud(Header(), np.array([12, 40]), matrix)
+    tampered.data = rows.tobytes()
+    with pytest.raises(InvalidInputError, match='landmark rows must come'):
+        state_covariance_from_cloud(tampered)
 
 
 def test_output_clouds_carry_assignment_nis_and_inverse_model_covariance():

@@ -8,19 +8,18 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import Float64MultiArray
 
 from data_association_ros.nodes.association_node import AssociationNode
-from message_fuzz import SCALE, float_arrays, odometries, plausible_clouds, raw_clouds
+from message_fuzz import SCALE, covariance_clouds, odometries, plausible_clouds, raw_clouds
 from ros_harness import Graph, cloud, correspondences, odometry
 
 TOPICS = {'landmarks': PointCloud2, 'observations': PointCloud2, 'robot_pose': Odometry,
-          'state_covariance': Float64MultiArray}
+          'state_covariance': PointCloud2}
 MESSAGES = st.one_of(
     st.tuples(st.just('observations'), st.one_of(raw_clouds(), plausible_clouds())),
     st.tuples(st.just('landmarks'), st.one_of(raw_clouds(), plausible_clouds())),
     st.tuples(st.just('robot_pose'), odometries()),
-    st.tuples(st.just('state_covariance'), float_arrays()))
+    st.tuples(st.just('state_covariance'), covariance_clouds()))
 
 
 @pytest.fixture(scope='module')

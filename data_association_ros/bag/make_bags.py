@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Optional
 
 from .scenarios import SCENARIOS
+from . import topics
 from .topics import scan_messages
 from .writer import BagWriter
 
@@ -47,7 +48,9 @@ def make_bag(name: str, directory: Path, data: Optional[Path] = None) -> Path:
         messages = (m for scan in scenario.generate() for m in scan_messages(scan))
     else:
         custom, messages = {}, _raw_bags()[name]()
-    with BagWriter(target, name, custom_data=custom) as bag:
+    prior_map = json.loads(custom.get(PARAMETERS_KEY, '{}')).get('prior_map', False)
+    with BagWriter(target, name, custom_data=custom,
+                   transient_local_topics=(topics.LANDMARKS,) if prior_map else ()) as bag:
         for topic, msg, log_time in messages:
             bag.write(topic, msg, log_time)
     return target

@@ -81,7 +81,7 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
     """Play `bag` into a fresh association_node; the answers recorded (see module doc).
     restart_after: kill the node (SIGKILL) after that many observation messages and start a
     new one without waiting for it (fault injection: what is sent meanwhile is lost)."""
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import PointCloud2
 
     from .message_types import message_class
@@ -104,8 +104,13 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
         return lambda msg: result.recorded.append((topic, msg, time.time_ns()))
     for topic in topics.OUTPUT_TOPICS:
         node.create_subscription(PointCloud2, topic, record(topic), qos)
-    publishers = {t: node.create_publisher(message_class(reader.topics[t]), t, qos)
-                  for t in present}
+    # a prior map goes out once, transient_local, as a map server publishes it
+    map_qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    publishers = {t: node.create_publisher(
+        message_class(reader.topics[t]), t,
+        map_qos if t == topics.LANDMARKS and parameters.get('prior_map') else qos)
+        for t in present}
     try:
         deadline = time.monotonic() + WAIT_FOR_NODE_S
         while not (all(p.get_subscription_count() > 0 for p in publishers.values())

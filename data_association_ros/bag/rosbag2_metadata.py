@@ -11,10 +11,11 @@ INFINITE = {'sec': 9223372036, 'nsec': 854775807}
 """rmw's 'infinite' duration as rosbag2 writes it."""
 
 
-def reliable_qos_profile(depth: int = 10) -> dict[str, Any]:
-    """The offered QoS of a default reliable, volatile, keep-last publisher (rosbag2 v9 form)."""
+def reliable_qos_profile(depth: int = 10, durability: str = 'volatile') -> dict[str, Any]:
+    """The offered QoS of a reliable keep-last publisher (rosbag2 v9 form); durability
+    'volatile' (default) or 'transient_local' (a map published once)."""
     return {'history': 'keep_last', 'depth': depth, 'reliability': 'reliable',
-            'durability': 'volatile', 'deadline': dict(INFINITE), 'lifespan': dict(INFINITE),
+            'durability': durability, 'deadline': dict(INFINITE), 'lifespan': dict(INFINITE),
             'liveliness': 'automatic', 'liveliness_lease_duration': dict(INFINITE),
             'avoid_ros_namespace_conventions': False}
 

@@ -10,35 +10,16 @@ then regenerate to the same messages on any machine.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Callable, Optional
 
 import numpy as np
 
-from ..core import NEW, UNASSOCIATED
+from ..core import NEW
 from ..core.models import MODELS, wrap_angle
-
-CLUTTER = UNASSOCIATED
-"""Ground-truth value of a clutter observation (-2)."""
+from .scan import CLUTTER, Scan
+from .street_grid import street_grid
 POINT_ALGORITHMS = ('euclidean_nn', 'mahalanobis_nn', 'maximum_likelihood', 'gnn', 'jcbb')
-
-
-@dataclass
-class Scan:
-    """One time step. Arrays: landmark_ids (N,), landmark_means (N, d), landmark_covariances
-    (N, d, d) or None; observations: field name -> (K,) values; truth (K,); truth_xy (K, 2)."""
-
-    time_ns: int
-    landmark_ids: np.ndarray
-    landmark_means: np.ndarray
-    landmark_covariances: Optional[np.ndarray]
-    observations: dict[str, np.ndarray]
-    observation_frame: str
-    truth: np.ndarray
-    truth_xy: np.ndarray
-    pose: Optional[tuple[np.ndarray, np.ndarray]] = None
-    state_covariance: Optional[np.ndarray] = None
-    map_frame: str = 'map'
-    odometry: Optional[tuple[np.ndarray, np.ndarray]] = None  # wheel odometry pose, covariance
 
 
 @dataclass(frozen=True)
@@ -251,6 +232,11 @@ def eight_identical_landmarks(seed: int = 0) -> list[Scan]:
     return scans
 
 
+
+STREET_GRID_PARAMETERS = {'prior_map': True, 'time_budget_ms': 0.0, 'gate_probability': 0.999}
+"""A map published once (transient_local); JCBB without a time budget (answers independent of
+the machine's speed)."""
+
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
     Scenario('easy_point_map', easy_point_map.__doc__, easy_point_map),
     Scenario('clutter_range_bearing', clutter_range_bearing.__doc__, clutter_range_bearing,
@@ -262,6 +248,11 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
              eight_identical_landmarks, algorithms=('multi_hypothesis',),
              parameters={'measurement_model': 'point_robot', 'mh_fov_range': 3.0,
                          'pose_tolerance': 0.01}),
+    Scenario('street_grid', street_grid.__doc__, street_grid,
+             parameters=STREET_GRID_PARAMETERS),
+    Scenario('street_grid_small', 'street_grid with a 540-pole map (side 216 m): the same '
+             'scans; the baseline of the large map\'s latency', partial(street_grid, side=216.0),
+             parameters=STREET_GRID_PARAMETERS),
     Scenario('boxes', boxes.__doc__, boxes,
              algorithms=('iou', 'euclidean_nn', 'mahalanobis_nn', 'gnn', 'jcbb'),
              parameters={'default_landmark_covariance': 16.0, 'observation_noise': [16.0],

@@ -66,6 +66,8 @@ class Score:
             'answered': self.answered,
             'messages': self.messages,
             'latency_median_ms': float(np.median(latencies)) if latencies.size else float('nan'),
+            'latency_p95_ms': float(np.percentile(latencies, 95)) if latencies.size
+            else float('nan'),
             'latency_p99_ms': float(np.percentile(latencies, 99)) if latencies.size
             else float('nan'),
         }

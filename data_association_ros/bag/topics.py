@@ -5,7 +5,7 @@ import numpy as np
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Header
 
-from msg_adapters import array_to_cloud, covariance_message, odometry_message
+from msg_adapters import array_to_cloud, odometry_message, state_covariance_cloud
 from msg_adapters.outputs import CORRESPONDENCE_DTYPE
 
 from .scenarios import Scan
@@ -54,21 +54,25 @@ def scan_messages(scan: Scan) -> list[tuple[str, object, int]]:
     """(topic, message, log time ns) of one scan: inputs first, then observations and truth."""
     t = scan.time_ns
     lead = t - INPUT_LEAD_NS
-    columns = {'id': scan.landmark_ids}
-    names = ('x', 'y', 'width', 'height') if scan.landmark_means.shape[1] == 4 else ('x', 'y')
-    for k, name in enumerate(names):
-        columns[name] = scan.landmark_means[:, k]
-    if scan.landmark_covariances is not None:
-        columns['cov_xx'] = scan.landmark_covariances[:, 0, 0]
-        columns['cov_xy'] = scan.landmark_covariances[:, 0, 1]
-        columns['cov_yy'] = scan.landmark_covariances[:, 1, 1]
-    messages = [(LANDMARKS, _cloud(columns, t, scan.map_frame), lead)]
+    messages = []
+    if scan.landmark_ids is not None:     # a prior map is published once, with the first scan
+        columns = {'id': scan.landmark_ids}
+        names = ('x', 'y', 'width', 'height') if scan.landmark_means.shape[1] == 4 \
+            else ('x', 'y')
+        for k, name in enumerate(names):
+            columns[name] = scan.landmark_means[:, k]
+        if scan.landmark_covariances is not None:
+            columns['cov_xx'] = scan.landmark_covariances[:, 0, 0]
+            columns['cov_xy'] = scan.landmark_covariances[:, 0, 1]
+            columns['cov_yy'] = scan.landmark_covariances[:, 1, 1]
+        messages.append((LANDMARKS, _cloud(columns, t, scan.map_frame), lead))
     if scan.pose is not None:
         messages.append((ROBOT_POSE, odometry_at(*scan.pose, t, scan.map_frame), lead))
     if scan.odometry is not None:
         messages.append((ODOMETRY, odometry_at(*scan.odometry, t, 'odom'), lead))
     if scan.state_covariance is not None:
-        messages.append((STATE_COVARIANCE, covariance_message(scan.state_covariance), lead))
+        messages.append((STATE_COVARIANCE, state_covariance_cloud(
+            header(t, scan.map_frame), scan.landmark_ids, scan.state_covariance), lead))
     messages.append((OBSERVATIONS, _cloud(scan.observations, t, scan.observation_frame), t))
     truth = np.zeros(len(scan.truth), dtype=CORRESPONDENCE_DTYPE)
     truth['observation'] = np.arange(len(scan.truth))

@@ -22,9 +22,11 @@ class BagWriter:
     """
 
     def __init__(self, directory, name: Optional[str] = None,
-                 custom_data: Optional[dict[str, str]] = None) -> None:
+                 custom_data: Optional[dict[str, str]] = None,
+                 transient_local_topics: tuple[str, ...] = ()) -> None:
         self.directory = Path(directory)
         self.custom_data = custom_data
+        self.transient_local_topics = transient_local_topics
         self.directory.mkdir(parents=True, exist_ok=True)
         stem = name or self.directory.name
         self.file_name = f'{stem}_0.mcap'
@@ -48,7 +50,10 @@ class BagWriter:
                 name=type_name, encoding='ros2msg', data=schema_text(type_name).encode())
         record = TopicRecord(name=topic, type=type_name,
                              type_description_hash=type_hash(type_name),
-                             offered_qos_profiles=(reliable_qos_profile(),))
+                             offered_qos_profiles=(reliable_qos_profile(
+                                 1 if topic in self.transient_local_topics else 10,
+                                 'transient_local' if topic in self.transient_local_topics
+                                 else 'volatile'),))
         qos_text = yaml.safe_dump(list(record.offered_qos_profiles), sort_keys=False)
         channel_id = self._writer.register_channel(
             topic=topic, message_encoding='cdr', schema_id=self._schemas[type_name],

@@ -12,9 +12,8 @@ from typing import Optional
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import diagnostics_message
@@ -44,13 +43,20 @@ class AssociationNode(ParameterizedNode):
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
             ReliabilityPolicy.BEST_EFFORT if config['input_qos'] == 'sensor_data'
             else ReliabilityPolicy.RELIABLE))
+        # a prior map is published once, transient_local, as map servers do: a late joiner
+        # still gets it
+        map_qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL) \
+            if config['prior_map'] else qos
         if config['landmarks_type'] == 'pose_array':
-            self.create_subscription(PoseArray, 'landmarks', self.pipeline.on_pose_array, qos)
+            self.create_subscription(PoseArray, 'landmarks',
+                                     self._then_waiting(self.pipeline.on_pose_array), map_qos)
         else:
-            self.create_subscription(PointCloud2, 'landmarks', self.pipeline.on_landmarks, qos)
+            self.create_subscription(PointCloud2, 'landmarks',
+                                     self._then_waiting(self.pipeline.on_landmarks), map_qos)
         self.create_subscription(Odometry, 'robot_pose', self._on_robot_pose, qos)
-        self.create_subscription(Float64MultiArray, 'state_covariance',
-                                 self.pipeline.on_state_covariance, qos)
+        self.create_subscription(PointCloud2, 'state_covariance',
+                                 self._then_waiting(self.pipeline.on_state_covariance), qos)
         self.create_subscription(Odometry, 'odometry', self.pipeline.on_odometry, qos)
         # Created last: when inputs of one scan wait together, the executor serves
         # subscriptions in creation order, so map and pose are taken before the scan.
@@ -78,6 +84,14 @@ class AssociationNode(ParameterizedNode):
     def _on_robot_pose(self, msg: Odometry) -> None:
         self.pipeline.on_robot_pose(msg)
         self._answer_waiting()
+
+    def _then_waiting(self, handler):
+        """`handler`, then answer the observation messages that waited for its input."""
+        def callback(msg) -> None:
+            handler(msg)
+            if self._waiting:
+                self._answer_waiting()
+        return callback
 
     def _on_observations(self, msg: PointCloud2) -> None:
         if self._waiting or self.pipeline.inputs_pending(msg):
@@ -123,10 +137,11 @@ class AssociationNode(ParameterizedNode):
         values = {'algorithm': self.config['algorithm'],
                   'measurement_model': self.config['measurement_model'],
                   **statistics.key_values()}
-        problems = bool(statistics.skipped or statistics.invalid)
+        problems = bool(statistics.skipped or statistics.invalid or statistics.fallbacks)
         self.diagnostics_pub.publish(diagnostics_message(
             self.get_clock().now().to_msg(), self.get_name(), values, warn=problems,
-            message='some messages skipped or invalid' if problems else 'ok'))
+            message='some messages skipped, invalid or answered with a fallback' if problems
+            else 'ok'))
 
 
 def main(args: Optional[list[str]] = None) -> None:

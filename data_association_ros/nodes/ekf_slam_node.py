@@ -16,7 +16,6 @@ from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import Float64MultiArray
 
 from msg_adapters import diagnostics_message
 
@@ -25,7 +24,7 @@ from .parameterized_node import ParameterizedNode, spin
 
 QOS_DEPTH = 100
 OUTPUT_TYPES = {'landmarks': PointCloud2, 'robot_pose': Odometry,
-                'state_covariance': Float64MultiArray, 'observations': PointCloud2,
+                'state_covariance': PointCloud2, 'observations': PointCloud2,
                 'slam_map': PointCloud2, 'slam_pose': Odometry}
 
 

@@ -17,15 +17,16 @@ from std_msgs.msg import Header
 
 from msg_adapters import (PointCloudFormatError, array_to_cloud, association_markers,
                           candidates_cloud, cloud_to_array, correspondences_cloud, detect_model,
-                          joint_covariance_from_array, landmarks_from_points,
-                          landmarks_from_pose_array, new_landmarks_cloud, observations_from_points,
-                          pose_from_odometry, transform_message)
+                          landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
+                          observations_from_points, pose_from_odometry,
+                          state_covariance_from_cloud, transform_message)
 
 from ..core import NEW, Association, InvalidInputError, Landmarks, RobotPose
 from ..core.candidates import CandidateManager, CandidateUpdate
 from ..core.initialisation import observations_in_map
 from ..core.models import MODELS
 from ..core.pose_recovery import RECOVERED, PoseRecovery, associate_with_pose_recovery
+from ..core.spatial_index import INDEX_MIN_LANDMARKS
 from .multi_hypothesis_stage import MultiHypothesisStage
 from .parameters import MULTI_HYPOTHESIS, algorithm_arguments
 from .stamped_buffer import StampedBuffer
@@ -46,6 +47,17 @@ class StampedLandmarks:
 
     landmarks: Landmarks
     frame_id: str
+    stamp: int = 0
+
+
+@dataclass(frozen=True)
+class StampedCovariance:
+    """A state_covariance message converted once on arrival: the landmark ids of its rows and
+    the joint covariance of [pose, those landmarks] (checked finite, symmetric, non-negative
+    diagonal)."""
+
+    ids: np.ndarray
+    matrix: np.ndarray
 
 
 @dataclass
@@ -73,7 +85,7 @@ class AssociationPipeline:
         self.statistics = AssociationStatistics()
         self.landmark_history: StampedBuffer[StampedLandmarks] = StampedBuffer(50)
         self.pose_history: StampedBuffer = StampedBuffer(200)
-        self.state_covariance: Optional[np.ndarray] = None
+        self.covariance_history: StampedBuffer[StampedCovariance] = StampedBuffer(50)
         self.candidates = CandidateManager()
         self.odometry_history: StampedBuffer = StampedBuffer(200)
         self.multi_hypothesis = MultiHypothesisStage()
@@ -96,8 +108,7 @@ class AssociationPipeline:
         except INPUT_ERRORS as error:
             self._invalid('landmarks', error)
             return
-        self.landmark_history.add(stamp_ns(msg.header),
-                                  StampedLandmarks(landmarks, msg.header.frame_id))
+        self._add_landmarks(msg.header, landmarks)
 
     def on_pose_array(self, msg) -> None:
         """A geometry_msgs/PoseArray of landmarks (ids = index)."""
@@ -106,8 +117,15 @@ class AssociationPipeline:
         except INPUT_ERRORS as error:
             self._invalid('landmarks', error)
             return
-        self.landmark_history.add(stamp_ns(msg.header),
-                                  StampedLandmarks(landmarks, msg.header.frame_id))
+        self._add_landmarks(msg.header, landmarks)
+
+    def _add_landmarks(self, header, landmarks: Landmarks) -> None:
+        stamp = stamp_ns(header)
+        if self.config['prior_map']:    # one fixed map: it serves every scan, whatever its age
+            self.landmark_history = StampedBuffer(1)
+            stamp = -2 ** 62
+        self.landmark_history.add(stamp, StampedLandmarks(landmarks, header.frame_id,
+                                                          stamp_ns(header)))
 
     def on_robot_pose(self, msg) -> None:
         """A nav_msgs/Odometry robot pose in the map frame."""
@@ -126,18 +144,42 @@ class AssociationPipeline:
         history.add(stamp_ns(msg.header), pose)
 
     def on_state_covariance(self, msg) -> None:
-        """A std_msgs/Float64MultiArray joint covariance [pose, landmarks...]."""
+        """A state_covariance PointCloud2: the joint covariance of [pose, landmarks] of the
+        landmarks message with the same stamp (msg_adapters.state.STATE_COVARIANCE_FIELDS)."""
         try:
-            self.state_covariance = joint_covariance_from_array(msg)
+            ids, matrix = state_covariance_from_cloud(msg)
         except INPUT_ERRORS as error:
             self._invalid('state_covariance', error)
+            return
+        self.covariance_history.add(stamp_ns(msg.header), StampedCovariance(ids, matrix))
+
+    def _joint_covariance(self, item: StampedLandmarks) -> Optional[np.ndarray]:
+        """The joint covariance that belongs to the map `item`: same stamp, same ids in the
+        same order, one row per landmark coordinate.  None (marginal covariances) when there
+        is none; counted as covariance_mismatch when covariances arrive but none fits."""
+        if not len(self.covariance_history):
+            return None
+        landmarks = item.landmarks
+        found = self.covariance_history.at(item.stamp)
+        if found is not None and np.array_equal(found.ids, landmarks.ids) and \
+                found.matrix.shape[0] == 3 + len(landmarks) * (landmarks.dim if len(landmarks)
+                                                               else 2):
+            return found.matrix
+        why = 'none with the map\'s stamp' if found is None else \
+            'its landmark ids or size differ from the map\'s'
+        self._reject(self.statistics.fallbacks, 'covariance_mismatch',
+                     f'state_covariance not used ({why}): marginal covariances instead')
+        return None
 
     def inputs_pending(self, msg) -> bool:
-        """True when the robot pose this observation message needs (robot-frame models) may still
-        be on its way: poses arrive, but none within pose_tolerance of its stamp and none newer
-        yet (DDS does not
-        order messages across topics: a SLAM node's pose can arrive after the scan it
-        precedes)."""
+        """True when what this observation message needs may still be on its way (DDS does not
+        order messages across topics: a SLAM node's map, pose and covariance can arrive after
+        the scan they precede, a large prior map after the first scans): no map received yet;
+        state covariances arrive but not yet the one of its map; or the robot pose it needs
+        (robot-frame models): poses arrive, but none within pose_tolerance of its stamp and
+        none newer yet."""
+        if not len(self.landmark_history) or self._covariance_pending(msg):
+            return True
         newest = self.pose_history.newest_stamp()
         if newest is None or self.config['measurement_model'] in ('point_map', 'box'):
             return False
@@ -152,6 +194,25 @@ class AssociationPipeline:
         except (AttributeError, TypeError, ValueError, InvalidInputError):
             return False
         return newest < stamp - int(self.config['pose_tolerance'] * NS_PER_S)
+
+    def _map_for(self, stamp: int, config: dict[str, Any]
+                 ) -> tuple[Optional[StampedLandmarks], str]:
+        """The newest landmarks not newer than `stamp` within max_landmark_age (the prior map,
+        whatever its age)."""
+        max_age = 2 ** 63 if config['prior_map'] else int(config['max_landmark_age'] * NS_PER_S)
+        return self.landmark_history.latest_not_after(stamp, max_age)
+
+    def _covariance_pending(self, msg) -> bool:
+        """True when state covariances arrive but the one of this scan's map has not yet (the
+        map owner publishes it with the map; DDS may deliver it after the scan)."""
+        newest = self.covariance_history.newest_stamp()
+        if newest is None:
+            return False
+        try:
+            item, _ = self._map_for(stamp_ns(msg.header), self.config)
+        except (AttributeError, TypeError, ValueError):
+            return False
+        return item is not None and newest < item.stamp
 
     def answer(self, msg) -> Optional[Answer]:
         """The outputs for an observation PointCloud2, or None when it is skipped or invalid."""
@@ -169,8 +230,7 @@ class AssociationPipeline:
     def _answer(self, msg, started: float) -> Optional[Answer]:
         config = dict(self.config)
         stamp = stamp_ns(msg.header)
-        item, why = self.landmark_history.latest_not_after(
-            stamp, int(config['max_landmark_age'] * NS_PER_S))
+        item, why = self._map_for(stamp, config)
         if item is None:
             self._reject(self.statistics.skipped, 'no_landmarks',
                          f'observation message skipped: landmarks {why}')
@@ -194,15 +254,13 @@ class AssociationPipeline:
                 return None
         observations = observations_from_points(points, model, config['observation_noise'])
         landmarks = item.landmarks
-        if len(observations) * len(landmarks) > config['max_pairs']:
+        if len(observations) * len(landmarks) > config['max_pairs'] and \
+                len(landmarks) < INDEX_MIN_LANDMARKS:
             self._reject(self.statistics.skipped, 'too_large',
                          f'observation message skipped: {len(observations)} observations x '
                          f'{len(landmarks)} landmarks exceeds max_pairs {config["max_pairs"]}')
             return None
-        state_covariance = self.state_covariance
-        if state_covariance is not None and \
-                state_covariance.shape[0] != 3 + len(landmarks) * landmarks.dim:
-            state_covariance = None
+        state_covariance = self._joint_covariance(item)
         result = associate_with_pose_recovery(
             landmarks, observations, config['algorithm'], pose, state_covariance,
             PoseRecovery(config['recovery_position_std'], config['recovery_yaw_std'],

@@ -118,7 +118,9 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
                   spec=ParameterSpec('mh_merge_threshold', 0.0, '', low=0.0)),
     NodeParameter('max_pairs', 5_000_000,
                   'an observation message with more observations x landmarks than this is '
-                  'skipped (counted as too_large): bounds memory and time per message',
+                  'skipped (counted as too_large): bounds memory and time per message; maps of '
+                  'at least 64 landmarks are spatially indexed (only the landmarks that can '
+                  'pass a gate take part) and are not limited by it',
                   spec=ParameterSpec('max_pairs', 5_000_000, '', kind=int, low=1)),
     NodeParameter('default_landmark_covariance', 0.01,
                   'variance [m^2] on each axis of landmarks that carry no covariance (PoseArray, '
@@ -146,6 +148,11 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
     NodeParameter('landmarks_type', 'pointcloud2',
                   'message type of the landmarks topic', choices=('pointcloud2', 'pose_array'),
                   read_only=True),
+    NodeParameter('prior_map', False,
+                  'the landmarks topic is a fixed map published once (transient_local, as map '
+                  'servers publish): the node keeps it, indexes it once and associates every '
+                  'later scan against it, whatever its age (max_landmark_age does not apply)',
+                  spec=ParameterSpec('prior_map', False, '', kind=bool), read_only=True),
     NodeParameter('input_qos', 'reliable',
                   'QoS of the input subscriptions: reliable (keep last, reliable) or '
                   'sensor_data (best effort)', choices=('reliable', 'sensor_data'),

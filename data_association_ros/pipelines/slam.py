@@ -5,8 +5,10 @@ Per scan (`sensor_observations`, PointCloud2 in the robot frame: range, bearing 
 var_bearing] or x, y [+ cov_xx, cov_xy, cov_yy]):
 1. wait until odometry at least as new as the scan has arrived (or `max_pending_scans` scans
    wait), compose the odometry increments up to the scan and predict;
-2. publish `landmarks`, `robot_pose` and `state_covariance` stamped with the scan's stamp, then
-   forward the scan on `observations` (so the association node has the map before the scan);
+2. publish the local map - `landmarks` within local_map_radius of the robot, `robot_pose` and
+   `state_covariance` (the block of [pose, those landmarks]) - stamped with the scan's stamp,
+   then forward the scan on `observations` (so the association node has the map before the
+   scan);
 3. on the scan's answer - `correspondences` (association_source `node`) or
    `ground_truth/correspondences` (`ground_truth`) - fuse the paired observations in one EKF
    update; then initialise landmarks: from `new_landmarks` (`node`: one landmark per candidate,
@@ -31,9 +33,9 @@ from typing import Any, Callable, Optional
 import numpy as np
 from std_msgs.msg import Header
 
-from msg_adapters import (PointCloudFormatError, cloud_to_array, covariance_message,
-                          detect_model, observations_from_points, odometry_message,
-                          point_map_cloud, pose_from_odometry)
+from msg_adapters import (PointCloudFormatError, cloud_to_array, detect_model,
+                          observations_from_points, odometry_message, point_map_cloud,
+                          pose_from_odometry, state_covariance_cloud)
 
 from ..core import InvalidInputError, Observations
 from ..core.models import MODELS
@@ -79,6 +81,11 @@ SLAM_PARAMETERS = (
     NodeParameter('min_motion_variance', 1e-9, 'added to the diagonal of every odometry '
                   'increment covariance [m^2, rad^2]',
                   spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
+    NodeParameter('local_map_radius', 0.0, 'landmarks and state_covariance carry the local map: '
+                  'the landmarks within this distance of the robot [m] and the covariance block '
+                  'of [pose, those landmarks] (ids stay global); 0: automatic, 1.5 x the largest '
+                  'observation distance seen so far + 5 m',
+                  spec=ParameterSpec('local_map_radius', 0.0, '', low=0.0)),
     NodeParameter('input_qos', 'reliable', 'QoS of the odometry and sensor_observations '
                   'subscriptions: reliable or sensor_data (best effort, as many drivers '
                   'publish)', choices=('reliable', 'sensor_data'), read_only=True),
@@ -91,6 +98,8 @@ MAX_ODOMETRY_QUEUE = 10_000
 (a dead sensor does not grow memory)."""
 RESTART_AFTER_NS = NS_PER_S
 """A scan this much older than the last one restarts the filter (a bag played again)."""
+LOCAL_MAP_MARGIN = 5.0
+"""Added to 1.5 x the sensor reach for the automatic local map radius [m]."""
 MAX_MAGNITUDE = 1e6
 """Largest |value| accepted in positions [m], ranges [m] and (co)variances: beyond it a value
 is a fault, and fusing it would overflow the filter's state."""
@@ -155,6 +164,7 @@ class SlamPipeline:
         self.origins: dict[int, tuple[int, int]] = {}   # landmark id -> (stamp, observation)
         self.next_id = 0
         self.added_for: set[int] = set()   # scan stamps whose new landmarks were added
+        self.sensor_reach = 0.0    # largest observation distance seen [m] (local map radius)
         self._throttle = WarningThrottle()
 
     # -- inputs -------------------------------------------------------------------------
@@ -270,17 +280,38 @@ class SlamPipeline:
             del self.early_answers[old]
             self.statistics.dropped['answer_without_scan'] += 1
         header = Header(stamp=msg.header.stamp, frame_id=MAP_FRAME)
+        self.sensor_reach = max(self.sensor_reach, float(np.max(
+            np.abs(observations.values[:, 0]) if model == 'range_bearing'
+            else np.linalg.norm(observations.values, axis=1), initial=0.0)))
+        local, rows = self._local_map()
         landmarks = self.slam.landmarks()
         out: Outputs = [
-            ('landmarks', point_map_cloud(header, landmarks.ids, landmarks.means,
-                                          landmarks.covariances)),
+            ('landmarks', point_map_cloud(header, landmarks.ids[local], landmarks.means[local],
+                                          landmarks.covariances[local])),
             ('robot_pose', odometry_message(header, *self._pose())),
-            ('state_covariance', covariance_message(self.slam.covariance)),
+            ('state_covariance', state_covariance_cloud(
+                header, landmarks.ids[local], self.slam.covariance[np.ix_(rows, rows)])),
             ('observations', msg)]
         answer = self.early_answers.pop(stamp, None)
         if answer is not None:
             out += self._apply_answer(answer)
         return out
+
+    def local_radius(self) -> float:
+        """local_map_radius, or 1.5 x the largest observation distance seen + 5 m [m]."""
+        radius = self.config['local_map_radius']
+        return radius if radius > 0 else 1.5 * self.sensor_reach + LOCAL_MAP_MARGIN
+
+    def _local_map(self) -> tuple[np.ndarray, np.ndarray]:
+        """(columns of the landmarks within local_radius of the robot (L,), their rows and the
+        pose's in the state (3 + 2 L,))."""
+        slam = self.slam
+        n = len(slam.ids)
+        means = slam.mean[3:].reshape(n, 2)
+        near = np.flatnonzero(np.hypot(means[:, 0] - slam.mean[0], means[:, 1] - slam.mean[1])
+                              <= self.local_radius())
+        rows = np.concatenate([np.arange(3), (3 + 2 * near[:, None] + np.arange(2)).ravel()])
+        return near, rows
 
     def _start(self, model: str) -> EkfSlam:
         c = self.config

@@ -29,6 +29,13 @@ class StampedBuffer(Generic[Item]):
         if len(self._stamps) > self.capacity:
             del self._stamps[0], self._items[0]
 
+    def at(self, stamp_ns: int) -> Optional[Item]:
+        """The item stamped exactly stamp_ns, None when there is none."""
+        index = bisect.bisect_left(self._stamps, stamp_ns)
+        if index < len(self._stamps) and self._stamps[index] == stamp_ns:
+            return self._items[index]
+        return None
+
     def newest_stamp(self) -> Optional[int]:
         """The newest stamp held [ns], None when empty."""
         return self._stamps[-1] if self._stamps else None

@@ -25,7 +25,8 @@ class WarningThrottle:
 
 
 class AssociationStatistics(WarningThrottle):
-    """Answered messages, outcomes per observation, skipped/invalid messages by cause, latency."""
+    """Answered messages, outcomes per observation, skipped/invalid messages and fallbacks (a
+    state_covariance that did not fit the map) by cause, latency."""
 
     def __init__(self, warn_period_s: float = 5.0) -> None:
         super().__init__(warn_period_s)
@@ -33,6 +34,7 @@ class AssociationStatistics(WarningThrottle):
         self.outcomes: Counter = Counter()
         self.skipped: Counter = Counter()
         self.invalid: Counter = Counter()
+        self.fallbacks: Counter = Counter()   # answered, but with less than was sent
         self.truncated = 0
         self.pose_recoveries = 0
         self.candidates_confirmed = 0
@@ -82,4 +84,5 @@ class AssociationStatistics(WarningThrottle):
         }
         values.update({f'skipped_{cause}': n for cause, n in sorted(self.skipped.items())})
         values.update({f'invalid_{cause}': n for cause, n in sorted(self.invalid.items())})
+        values.update({f'fallback_{cause}': n for cause, n in sorted(self.fallbacks.items())})
         return values
