@@ -215,8 +215,11 @@ def raw_cloud(fields, point_step, data, width, stamp=1.0, frame='map'):
 def test_malformed_messages_never_kill_the_node(graph):
     diagnostics = graph.collect(DiagnosticArray, '/diagnostics')
     valid = cloud({'x': [0.1], 'y': [0.0]}, 2.0)
+    assert set_parameters(graph, pose_wait=0.2)[0].successful
     graph.publisher(PointCloud2, 'observations').publish(valid)  # landmarks never received
-    settle(graph)
+    settle(graph, 0.1)
+    assert graph.node.statistics.skipped['no_landmarks'] == 0     # waits for a first map
+    settle(graph, 0.4)
     assert graph.received['correspondences'] == []
     assert graph.node.statistics.skipped['no_landmarks'] == 1
     publish_map(graph)
