@@ -3,46 +3,54 @@ covariance of N = 5,000 (issue: cost grows with what the sensor sees, not with t
 
     python benchmarks/large_maps.py [--sizes 100,1000,10000,100000] [--markdown]
 
-Scenes: landmarks uniform at one per 16 m^2 (a square of side 4 sqrt(N) m) around the robot,
-sigma 0.1 m; pose sigma (0.05 m, 0.05 m, 0.02 rad); K observations: 90 % of them the K nearest
+Scenes: the N landmarks nearest the robot of a city of 100,000 uniform at one per 16 m^2,
+sigma 0.1 m (so the robot sees the same landmarks on every map size); pose sigma (0.05 m, 0.05 m, 0.02 rad); K observations: 90 % of them the K nearest
 landmarks (point_robot: sigma 0.05 m; range_bearing: 0.05 m, 0.01 rad), 10 % clutter within
 the same range.  Each map is built once (the index is built at the first call, untimed, as for
-a prior map); times are medians of repeated associate() calls on the same scan.  Ratios are of
-times measured in this run.
+a prior map); times are medians of repeated associate() calls on the same scan, timed round-robin over the
+map sizes (a busy machine slows them alike); the answers are checked equal on every size.
 """
 from __future__ import annotations
 
 import argparse
 import os
 import platform
-import sys
 import time
 
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
-from timing import median_p95_ms, time_calls  # noqa: E402
 
 from data_association_ros import Landmarks, Observations, RobotPose, associate  # noqa: E402
 from data_association_ros.core.models import MODELS  # noqa: E402
 from data_association_ros.core.validation import check_covariance_matrix  # noqa: E402
 
 ALGORITHMS = ('mahalanobis_nn', 'gnn', 'jcbb')
+JCBB_NODES_K100 = 1000
+"""jcbb with K = 100 stops after this many search nodes (the full search of 90 returns 25 m
+around the robot takes minutes); the same search on every map size."""
 MODELS_TIMED = ('point_robot', 'range_bearing')
 POSE_COVARIANCE = np.diag([0.05 ** 2, 0.05 ** 2, 0.02 ** 2])
 NOISE = {'point_robot': np.diag([0.05 ** 2, 0.05 ** 2]),
          'range_bearing': np.diag([0.05 ** 2, 0.01 ** 2])}
 
 
+LARGEST = 100_000
+
+
 def landmark_map(n: int, seed: int = 0) -> tuple[Landmarks, np.ndarray]:
-    """(Landmarks: N uniform at one per 16 m^2 around the origin, sigma 0.1 m; true positions)."""
+    """(Landmarks, true positions): the N landmarks nearest the origin of one city of LARGEST
+    (max(N, LARGEST)) landmarks uniform at one per 16 m^2, sigma 0.1 m; so every size holds the
+    same landmarks around the robot, and a scan is the same problem on every map."""
+    total = max(n, LARGEST)
     rng = np.random.default_rng(seed)
-    half = 2.0 * np.sqrt(n)
-    true = rng.uniform(-half, half, (n, 2))
-    means = true + rng.normal(0.0, 0.1, (n, 2))
-    return Landmarks(np.arange(n), means, np.tile(np.eye(2) * 0.1 ** 2, (n, 1, 1))), true
+    half = 2.0 * np.sqrt(total)
+    true = rng.uniform(-half, half, (total, 2))
+    means = true + rng.normal(0.0, 0.1, (total, 2))
+    nearest = np.argsort(np.hypot(true[:, 0], true[:, 1]), kind='stable')[:n]
+    return (Landmarks(np.arange(n), means[nearest], np.tile(np.eye(2) * 0.1 ** 2, (n, 1, 1))),
+            true[nearest])
 
 
 def scan(true: np.ndarray, k: int, model: str, seed: int = 1) -> tuple[Observations, RobotPose]:
@@ -78,31 +86,43 @@ def joint_covariance(landmarks: Landmarks, seed: int = 2) -> np.ndarray:
     return matrix
 
 
-def time_scan(landmarks, observations, pose, algorithm, state_covariance=None,
-              spatial_index=None) -> float:
-    """Median ms of associate() on one scan (the first call, which builds the index, untimed)."""
-    times = time_calls(lambda: associate(landmarks, observations, algorithm, pose=pose,
-                                         state_covariance=state_covariance,
-                                         spatial_index=spatial_index),
-                       min_repeats=7, max_repeats=60, min_seconds=0.25)
-    return median_p95_ms(times)[0]
+def interleaved_ms(calls: dict, rounds: int = 25) -> dict:
+    """Median ms of each call, timed round-robin (one call of each per round, after one
+    untimed warm-up call each, which builds the index): a busy machine slows all alike."""
+    times = {key: [] for key in calls}
+    for call in calls.values():
+        call()
+    for _ in range(rounds):
+        for key, call in calls.items():
+            started = time.perf_counter()
+            call()
+            times[key].append(time.perf_counter() - started)
+    return {key: float(np.median(values)) * 1e3 for key, values in times.items()}
 
 
 def size_table(sizes: list[int], ks: list[int]) -> list[dict]:
-    """Median ms per (K, model, algorithm, N), indexed, and unindexed where N <= 10,000."""
+    """Median ms per (K, model, algorithm, N), indexed, and unindexed where N <= 10,000; the
+    answers on every map are checked equal (the same problem, only the map grows)."""
     rows = []
     maps = {n: landmark_map(n) for n in sizes}
     for k in ks:
         for model in MODELS_TIMED:
             for algorithm in ALGORITHMS:
-                row = {'k': k, 'model': model, 'algorithm': algorithm}
+                calls = {}
                 for n in sizes:
                     landmarks, true = maps[n]
                     observations, pose = scan(true, k, model)
-                    row[n] = time_scan(landmarks, observations, pose, algorithm)
-                    if n <= 10_000:
-                        row[f'{n} unindexed'] = time_scan(landmarks, observations, pose,
-                                                          algorithm, spatial_index=False)
+                    budget = {'max_nodes': JCBB_NODES_K100} if algorithm == 'jcbb' and k > 30 \
+                        else {}
+                    for indexed in (None, False) if n <= 10_000 else (None,):
+                        calls[n if indexed is None else f'{n} unindexed'] = (
+                            lambda lm=landmarks, o=observations, p=pose, i=indexed: associate(
+                                lm, o, algorithm, pose=p, spatial_index=i, **budget))
+                answers = {key: call().assignment for key, call in calls.items()}
+                first = next(iter(answers.values()))
+                assert all(np.array_equal(a, first) for a in answers.values()), answers
+                row = {'k': k, 'model': model, 'algorithm': algorithm,
+                       **interleaved_ms(calls, rounds=15 if k > 30 else 25)}
                 rows.append(row)
                 print(row, flush=True)
     return rows
@@ -110,7 +130,7 @@ def size_table(sizes: list[int], ks: list[int]) -> list[dict]:
 
 def joint_table(sizes: tuple[int, ...] = (100, 5000), k: int = 30) -> list[dict]:
     """Median ms with a joint covariance, range_bearing, per algorithm; and the arrival check
-    (finite, symmetric, non-negative diagonal) of the matrix once per message."""
+    (finite, symmetric, non-negative diagonal) of the matrix, once per message."""
     rows = []
     prepared = {}
     for n in sizes:
@@ -120,12 +140,14 @@ def joint_table(sizes: tuple[int, ...] = (100, 5000), k: int = 30) -> list[dict]
         checked = check_covariance_matrix(raw, 'state_covariance')
         prepared[n] = (landmarks, true, checked, (time.perf_counter() - started) * 1e3)
     for algorithm in ALGORITHMS:
-        row = {'algorithm': algorithm}
+        calls = {}
         for n in sizes:
-            landmarks, true, checked, arrival = prepared[n]
+            landmarks, true, checked, _ = prepared[n]
             observations, pose = scan(true, k, 'range_bearing')
-            row[n] = time_scan(landmarks, observations, pose, algorithm, checked)
-            row[f'{n} arrival'] = arrival
+            calls[n] = (lambda lm=landmarks, o=observations, p=pose, c=checked: associate(
+                lm, o, algorithm, pose=p, state_covariance=c))
+        row = {'algorithm': algorithm, **interleaved_ms(calls)}
+        row.update({f'{n} arrival': prepared[n][3] for n in sizes})
         rows.append(row)
         print(row, flush=True)
     return rows
@@ -140,9 +162,11 @@ def markdown(rows: list[dict], joint: list[dict], sizes: list[int]) -> str:
              '| K | model | algorithm | ' + ' | '.join(f'N = {n:,}' for n in sizes)
              + f' | N = {last:,} / N = {first:,} | unindexed N = {max(n for n in sizes if n <= 10_000):,} |',
              '|---|---|---|' + '---|' * (len(sizes) + 2)]
+    note = f' (max_nodes {JCBB_NODES_K100})'
     big_unindexed = max(n for n in sizes if n <= 10_000)
     for r in rows:
-        lines.append(f'| {r["k"]} | {r["model"]} | {r["algorithm"]} | '
+        budget = note if r['algorithm'] == 'jcbb' and r['k'] > 30 else ''
+        lines.append(f'| {r["k"]} | {r["model"]} | {r["algorithm"]}{budget} | '
                      + ' | '.join(f'{r[n]:.3g}' for n in sizes)
                      + f' | {r[last] / r[first]:.2f} | {r[f"{big_unindexed} unindexed"]:.3g} |')
     if joint:

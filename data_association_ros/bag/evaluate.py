@@ -127,6 +127,7 @@ def evaluate_live(bag: Path, algorithm: str, overrides: dict[str, Any], rate: fl
         write_recording(target, result)
         summary = score_recording(truth, BagReader(target), read_truth_xy(bag)).summary()
     summary['node_alive'] = result.node_alive
+    summary['node_rss_mb'] = [round(kb / 1024, 1) for kb in result.node_rss_kb]
     return summary
 
 
@@ -138,6 +139,7 @@ COLUMNS = (('algorithm', 'algorithm', 20, '{}'), ('pair_precision', 'precision',
            ('landmarks_missed', 'lm missed', 10, '{}'),
            ('confirm_delay_scans', 'delay', 7, '{:.1f}'))
 LIVE_COLUMNS = (('latency_median_ms', 'latency p50 ms', 15, '{:.2f}'),
+                ('latency_p95_ms', 'p95 ms', 8, '{:.2f}'),
                 ('latency_p99_ms', 'p99 ms', 8, '{:.2f}'))
 OFFLINE_COLUMNS = (('scans_per_s', 'scans/s', 9, '{:.0f}'),)
 

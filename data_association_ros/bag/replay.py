@@ -40,6 +40,7 @@ class ReplayResult:
     node_log: str = ''
     recorded: list = field(default_factory=list)  # (topic, msg, log time ns)
     restarted_after: Optional[int] = None  # observation messages sent before a forced restart
+    node_rss_kb: list = field(default_factory=list)  # the node's resident memory, every 50 scans
 
     @property
     def ok(self) -> bool:
@@ -60,6 +61,17 @@ class ReplayResult:
             else:
                 ranges.append((k, k))
         return ranges
+
+
+def resident_kb(pid: int) -> int:
+    """VmRSS of process `pid` [kB] (Linux /proc), 0 where it cannot be read."""
+    try:
+        for line in Path(f'/proc/{pid}/status').read_text().splitlines():
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
 
 
 def _stamp_key(msg) -> tuple[int, int]:
@@ -134,6 +146,8 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
             if topic == topics.OBSERVATIONS:
                 result.recorded.append((topic, msg, time.time_ns()))
                 result.sent += 1
+                if result.sent % 50 == 1:
+                    result.node_rss_kb.append(resident_kb(process.pid))
                 if progress:
                     _progress(result.sent, total)
             publishers[topic].publish(msg)
