@@ -1,14 +1,16 @@
 """Per-scan cost on large maps: associate() at N = 100 ... 100,000 landmarks, and with a joint
 covariance of N = 5,000 (issue: cost grows with what the sensor sees, not with the map).
 
-    python benchmarks/large_maps.py [--sizes 100,1000,10000,100000] [--markdown]
+    python benchmarks/large_maps.py [--sizes 100,1000,10000,100000] [--ks 30,100]
 
 Scenes: the N landmarks nearest the robot of a city of 100,000 uniform at one per 16 m^2,
-sigma 0.1 m (so the robot sees the same landmarks on every map size); pose sigma (0.05 m, 0.05 m, 0.02 rad); K observations: 90 % of them the K nearest
-landmarks (point_robot: sigma 0.05 m; range_bearing: 0.05 m, 0.01 rad), 10 % clutter within
-the same range.  Each map is built once (the index is built at the first call, untimed, as for
-a prior map); times are medians of repeated associate() calls on the same scan, timed round-robin over the
-map sizes (a busy machine slows them alike); the answers are checked equal on every size.
+sigma 0.1 m (so the robot sees the same landmarks on every map size); pose sigma (0.05 m,
+0.05 m, 0.02 rad); K observations: 90 % of them the K nearest landmarks (point_robot: sigma
+0.05 m; range_bearing: 0.05 m, 0.01 rad), 10 % clutter within the same range.  Each map is
+built once (the index is built at the first call, untimed, as for a prior map); times are
+medians of repeated associate() calls on the same scan, in blocks of consecutive calls (scan
+after scan on one map) taken round-robin over the map sizes (a busy machine slows them alike);
+the answers are checked equal on every size.
 """
 from __future__ import annotations
 
@@ -86,17 +88,21 @@ def joint_covariance(landmarks: Landmarks, seed: int = 2) -> np.ndarray:
     return matrix
 
 
-def interleaved_ms(calls: dict, rounds: int = 25) -> dict:
-    """Median ms of each call, timed round-robin (one call of each per round, after one
-    untimed warm-up call each, which builds the index): a busy machine slows all alike."""
+def interleaved_ms(calls: dict, rounds: int = 25, block: int = 4) -> dict:
+    """Median ms of each call: rounds of `block` + 1 consecutive calls of each (the first of a
+    block untimed: as scan after scan on one map, not after another map's calls evicted the
+    caches), the calls round-robin so that a busy machine slows all alike.  One untimed call
+    each first (it builds the index)."""
     times = {key: [] for key in calls}
     for call in calls.values():
         call()
     for _ in range(rounds):
         for key, call in calls.items():
-            started = time.perf_counter()
             call()
-            times[key].append(time.perf_counter() - started)
+            for _ in range(block):
+                started = time.perf_counter()
+                call()
+                times[key].append(time.perf_counter() - started)
     return {key: float(np.median(values)) * 1e3 for key, values in times.items()}
 
 
@@ -122,7 +128,8 @@ def size_table(sizes: list[int], ks: list[int]) -> list[dict]:
                 first = next(iter(answers.values()))
                 assert all(np.array_equal(a, first) for a in answers.values()), answers
                 row = {'k': k, 'model': model, 'algorithm': algorithm,
-                       **interleaved_ms(calls, rounds=15 if k > 30 else 25)}
+                       **interleaved_ms(calls, rounds=10, block=4 if k <= 30 or algorithm != 'jcbb'
+                                        else 1)}
                 rows.append(row)
                 print(row, flush=True)
     return rows
@@ -155,15 +162,15 @@ def joint_table(sizes: tuple[int, ...] = (100, 5000), k: int = 30) -> list[dict]
 
 def markdown(rows: list[dict], joint: list[dict], sizes: list[int]) -> str:
     first, last = 1000 if 1000 in sizes else sizes[0], sizes[-1]
+    big_unindexed = max(n for n in sizes if n <= 10_000)
     lines = [f'`python benchmarks/large_maps.py` ({time.strftime("%Y-%m-%d")}, '
              f'{os.cpu_count()} cores ({platform.machine()}), Python {platform.python_version()}'
              f', numpy {np.__version__}); median ms per associate() call, index built once '
              'per map', '',
              '| K | model | algorithm | ' + ' | '.join(f'N = {n:,}' for n in sizes)
-             + f' | N = {last:,} / N = {first:,} | unindexed N = {max(n for n in sizes if n <= 10_000):,} |',
+             + f' | N = {last:,} / N = {first:,} | unindexed N = {big_unindexed:,} |',
              '|---|---|---|' + '---|' * (len(sizes) + 2)]
     note = f' (max_nodes {JCBB_NODES_K100})'
-    big_unindexed = max(n for n in sizes if n <= 10_000)
     for r in rows:
         budget = note if r['algorithm'] == 'jcbb' and r['k'] > 30 else ''
         lines.append(f'| {r["k"]} | {r["model"]} | {r["algorithm"]}{budget} | '
@@ -175,7 +182,8 @@ def markdown(rows: list[dict], joint: list[dict], sizes: list[int]) -> str:
                   'read); arrival = the once-per-message check of the whole matrix (finite, '
                   'symmetric, non-negative diagonal), ms', '',
                   '| algorithm | ' + ' | '.join(f'N = {n:,}' for n in sizes_j)
-                  + f' | N = {sizes_j[-1]:,} / N = {sizes_j[0]:,} | arrival check N = {sizes_j[-1]:,} |',
+                  + f' | N = {sizes_j[-1]:,} / N = {sizes_j[0]:,} | arrival check '
+                  f'N = {sizes_j[-1]:,} |',
                   '|---|' + '---|' * (len(sizes_j) + 2)]
         for r in joint:
             lines.append(f'| {r["algorithm"]} | ' + ' | '.join(f'{r[n]:.3g}' for n in sizes_j)

@@ -183,8 +183,9 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
         while not (all(p.get_subscription_count() > 0 for p in publishers.values())
                    and node.count_publishers(topics.CORRESPONDENCES) > 0
                    and node.count_publishers(topics.SLAM_POSE) > 0
-                   and node.count_subscribers(topics.OBSERVATIONS) > 0
-                   and node.count_publishers(topics.OBSERVATIONS) > 0):
+                   and all(node.count_subscribers(t) > 0 and node.count_publishers(t) > 0
+                           for t in (topics.OBSERVATIONS, topics.LANDMARKS,
+                                     topics.ROBOT_POSE, topics.STATE_COVARIANCE))):
             if not alive() or time.monotonic() > deadline:
                 raise BagError('association_node / ekf_slam_node did not come up')
             executor.spin_once(timeout_sec=0.05)

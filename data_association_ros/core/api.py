@@ -69,7 +69,8 @@ def _local_problem(problem: AssociationProblem, associator, parameters: dict,
         return problem
     gate = associator.gate(problem.observations, parameters)
     index = landmark_index(problem.landmarks, problem.state_covariance)
-    points, radius_of = search_radii(
-        problem.model.name, problem.observations, None if problem.pose is None else problem.pose.mean,
-        problem.pose_covariance, gate, problem.min_innovation_variance)
+    pose_mean = None if problem.pose is None else problem.pose.mean
+    points, radius_of = search_radii(problem.model.name, problem.observations, pose_mean,
+                                     problem.pose_covariance, gate,
+                                     problem.min_innovation_variance)
     return problem.restricted(index.candidates(points, radius_of))

@@ -94,8 +94,8 @@ class AssociationProblem:
         local = None
         if self.state_covariance is not None:
             d = self.landmarks.dim
-            rows = np.concatenate([np.arange(3), (3 + d * np.asarray(columns, dtype=np.intp)[:, None]
-                                                  + np.arange(d)).ravel()])
+            first = 3 + d * np.asarray(columns, dtype=np.intp)
+            rows = np.concatenate([np.arange(3), (first[:, None] + np.arange(d)).ravel()])
             local = self.state_covariance[np.ix_(rows, rows)]
         problem = AssociationProblem(landmarks, self.observations, self.pose, local,
                                      self.min_innovation_variance)
