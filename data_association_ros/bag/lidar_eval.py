@@ -248,8 +248,10 @@ def parse_values(pairs: Iterable[str]) -> dict:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_lidar_eval', description=__doc__.splitlines()[0])
-    parser.add_argument('bag', nargs='?', type=Path, default=BAG)
+    parser = argparse.ArgumentParser(prog='da_lidar_eval',
+                                     description=' '.join(__doc__.split('\n\n')[0].split()))
+    parser.add_argument('bag', nargs='?', type=Path, default=BAG,
+                        help=f'LiDAR bag with /scan and its truth (default: {BAG})')
     parser.add_argument('--rows', default='default,nearest,polar,polar_kabsch,kabsch,'
                         'nearest_kabsch,velocity,seed',
                         help=f'comma-separated rows (of {", ".join(ROWS)})')

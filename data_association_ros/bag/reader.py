@@ -121,15 +121,15 @@ class BagReader:
         parts = found.split('/')
         normal = f'{parts[0]}/msg/{parts[1]}' if len(parts) == 2 else found
         expected = EXPECTED_TYPES.get(topic, ())
-        if expected and normal not in expected:
-            raise BagError(f'{self.path}: topic {topic} has type {found or "(no schema)"}, '
-                           f'expected {" or ".join(expected)}')
         try:
             message_class(found)
+            installed = True
         except MessageTypeError:
-            raise BagError(f'{self.path}: topic {topic} has type {found or "(no schema)"}, '
-                           f'which is not installed here (expected '
-                           f'{" or ".join(expected) or "an installed type"})') from None
+            installed = False
+        if (expected and normal not in expected) or not installed:
+            raise BagError(f'{self.path}: topic {topic} has type {found or "(no schema)"}'
+                           f'{"" if installed else " (not installed here)"}, expected '
+                           f'{" or ".join(expected) or "an installed type"}')
 
     def messages(self, topics: Optional[Iterable[str]] = None,
                  deserialize: bool = True) -> Iterator[BagMessage]:

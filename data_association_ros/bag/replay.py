@@ -189,7 +189,8 @@ def write_recording(out: Path, result: ReplayResult,
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_bag_replay', description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(prog='da_bag_replay', 
+                                     description=' '.join(__doc__.split('\n\n')[0].split()))
     parser.add_argument('bag', type=Path, help='bag with /landmarks and /observations (MCAP)')
     algorithms = BY_NAME['algorithm'].choices
     parser.add_argument('--algorithm', required=True, choices=algorithms, metavar='NAME',

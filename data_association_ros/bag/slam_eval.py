@@ -125,12 +125,13 @@ def format_table(rows: list[dict[str, Any]], markdown: bool = False) -> str:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_slam_eval', description=__doc__.splitlines()[0],
+    parser = argparse.ArgumentParser(prog='da_slam_eval', description=' '.join(__doc__.split('\n\n')[0].split()),
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog='\n'.join(__doc__.splitlines()[2:]))
     parser.add_argument('bags', type=Path, nargs='*',
                         help='SLAM bags (default: every one in the repository\'s bags/)')
-    parser.add_argument('--algorithms', default=','.join(DEFAULT_ALGORITHMS))
+    parser.add_argument('--algorithms', default=','.join(DEFAULT_ALGORITHMS),
+                        help='comma-separated association algorithms (default: %(default)s)')
     parser.add_argument('--modes', default=','.join(MODES),
                         help='ground_truth (oracle) and/or node (closed loop)')
     parser.add_argument('--steps', type=int, help='only the first STEPS scans of each bag')
