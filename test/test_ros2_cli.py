@@ -93,7 +93,8 @@ def tools(tmp_path_factory) -> Tools:
                                   f'--build-base {ws}/build --install-base {ws}/install',
                                   timeout=300)
     assert build.returncode == 0, build.stdout[-3000:]
-    setup.write_text(setup.read_text() + f'source {shlex.quote(str(ws / "install" / "setup.bash"))}\n')
+    install = shlex.quote(str(ws / 'install' / 'setup.bash'))
+    setup.write_text(setup.read_text() + f'source {install}\n')
     yield Tools(setup, env)
     Tools(setup, env).run('ros2 daemon stop', timeout=30)
 
@@ -105,7 +106,8 @@ def wait_for(log: Path, pattern: str, process: subprocess.Popen, timeout: float 
         text = log.read_text(errors='replace')
         if re.search(pattern, text):
             return text
-        assert process.poll() is None, f'ended (exit {process.returncode}) before {pattern!r}:\n{text}'
+        assert process.poll() is None, \
+            f'ended (exit {process.returncode}) before {pattern!r}:\n{text}'
         time.sleep(0.2)
     raise AssertionError(f'no {pattern!r} after {timeout} s:\n{log.read_text(errors="replace")}')
 

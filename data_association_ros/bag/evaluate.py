@@ -187,7 +187,8 @@ def recording_info(out: Path) -> tuple[str, str]:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_bag_eval', description=' '.join(__doc__.split('\n\n')[0].split()),
+    parser = argparse.ArgumentParser(prog='da_bag_eval',
+                                     description=' '.join(__doc__.split('\n\n')[0].split()),
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog='\n'.join(__doc__.splitlines()[2:]))
     parser.add_argument('bag', type=Path,

@@ -10,7 +10,9 @@ bb_width, bb_height, conf, then x, y, z (MOT15) or class, visibility (MOT16+); d
 id -1.  Ground-truth rows the MOT evaluation ignores (conf 0, classes other than pedestrian)
 are dropped.  In the bag, frame k is stamped (k - 1) / fps s; /observations holds the
 detections (x, y = box centre, width, height, score; frame 'camera') and /ground_truth/tracks the
-true boxes (id, x, y, width, height); its metadata names the sequence.  Scores (TrackEval's CLEAR, Identity and HOTA on IoU
+true boxes (id, x, y, width, height); its metadata names the sequence.
+
+Scores (TrackEval's CLEAR, Identity and HOTA on IoU
 similarity, MOTA matching at IoU 0.5 as motmetrics does): TrackEval is maintained and runs on
 NumPy 2, where motmetrics 1.4.0 calls the removed np.asfarray.
 """

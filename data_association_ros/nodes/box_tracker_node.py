@@ -85,7 +85,8 @@ class BoxTrackerNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `box_tracker_node` executable."""
-    spin(BoxTrackerNode, args, usage_text('box_tracker_node', __doc__, TRACKER_PARAMETERS, 'docs/mot.md'))
+    spin(BoxTrackerNode, args,
+         usage_text('box_tracker_node', __doc__, TRACKER_PARAMETERS, 'docs/mot.md'))
 
 
 if __name__ == '__main__':

@@ -130,7 +130,8 @@ class LidarTrackerNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `lidar_tracker_node` executable."""
-    spin(LidarTrackerNode, args, usage_text('lidar_tracker_node', __doc__, LIDAR_NODE_PARAMETERS, 'docs/lidar.md'))
+    spin(LidarTrackerNode, args,
+         usage_text('lidar_tracker_node', __doc__, LIDAR_NODE_PARAMETERS, 'docs/lidar.md'))
 
 
 if __name__ == '__main__':
