@@ -12,9 +12,9 @@ from typing import Any, Callable, Optional, Sequence
 
 import rclpy
 
-from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
