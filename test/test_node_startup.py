@@ -1,12 +1,14 @@
 """The four node executables at start-up: `--help` prints what the node does, its topics and
 its parameters and exits 0 without starting ROS; an invalid parameter (out of range, wrong type,
 not a choice, in conflict with another) stops the node with one line naming the parameter, the
-value and the valid values, and exit code 1."""
+value and the valid values, and exit code 1; Ctrl-C, even twice, ends it cleanly."""
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -91,3 +93,27 @@ def test_an_invalid_start_parameter_stops_the_node_with_one_line(node, name, val
         line = (f"{node}: invalid parameter {name}:={value!r}: {value!r} is not one of "
                 f'{parameter.range_text()}; not started')
     assert lines[0] == line
+
+
+@pytest.mark.parametrize('gap_s', [0.0, 0.02, 0.1, 0.5])
+def test_ctrl_c_twice_ends_the_node_cleanly(tmp_path, gap_s):
+    """Ctrl-C under `ros2 launch` reaches a node twice (from the terminal and from launch)."""
+    log = tmp_path / 'node.log'
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    with open(log, 'wb') as out:
+        process = subprocess.Popen([str(BIN / 'association_node')], stdout=out,
+                                   stderr=subprocess.STDOUT, env=env)
+    try:
+        deadline = time.monotonic() + 30
+        while 'association_node ready' not in log.read_text() and time.monotonic() < deadline:
+            assert process.poll() is None, log.read_text()
+            time.sleep(0.1)
+        process.send_signal(signal.SIGINT)
+        time.sleep(gap_s)
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=20) == 0, log.read_text()
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert 'Traceback' not in log.read_text() and 'KeyboardInterrupt' not in log.read_text()

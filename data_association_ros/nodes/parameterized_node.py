@@ -133,6 +133,19 @@ def usage_text(node: str, doc: str, parameters: Sequence[NodeParameter], table: 
         f'ros2 param describe /{node} NAME):', *rows])
 
 
+def _interrupt_once() -> None:
+    """SIGINT raises KeyboardInterrupt the first time only.  Ctrl-C under `ros2 launch` reaches
+    a node twice (from the terminal and forwarded by launch): the second must not interrupt the
+    clean-up with a traceback.  Installed before rclpy.init, whose handler calls this one."""
+    raised = []
+
+    def handler(signum, frame) -> None:
+        if not raised:
+            raised.append(signum)
+            raise KeyboardInterrupt
+    signal.signal(signal.SIGINT, handler)
+
+
 def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
          usage: str = '') -> None:
     """Entry point of an executable: `usage` for --help/-h (ROS not started); else init, spin
@@ -142,6 +155,7 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
     if usage and ('--help' in own or '-h' in own):
         print(usage)
         return
+    _interrupt_once()
     rclpy.init(args=args)
     try:
         node = node_class()
@@ -153,9 +167,9 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
         pass
     finally:
-        # Ctrl-C under `ros2 launch` reaches the node twice (from the terminal and from launch):
-        # a second SIGINT must not interrupt the clean-up with a KeyboardInterrupt traceback.
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
         node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
+        # else the interpreter's exit restores the default action: a late second SIGINT
+        # would end the process by the signal (exit code -2) instead of 0
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
