@@ -107,6 +107,8 @@ def test_a_topic_of_another_or_uninstalled_type_is_named_in_one_line(tmp_path, o
         '/ground_truth/correspondences': TRUTH})
     line = f'{bag}: {expected}'
     assert one_error_line(run('da_bag_eval', bag, '--offline'), 'da_bag_eval') == line
+    if observations is UNINSTALLED:
+        return   # the same check in every tool (BagReader.check_type): once is enough
     assert one_error_line(run('da_bag_eval', bag, '--algorithms', 'gnn'), 'da_bag_eval') == line
     out = tmp_path / 'out'
     assert one_error_line(run('da_bag_replay', bag, '--algorithm', 'gnn', '--out', out),
