@@ -5,6 +5,9 @@ observation lies nearer a wrong neighbour), plus one clutter return.  Run: `da_d
 """
 from __future__ import annotations
 
+import argparse
+from typing import Optional
+
 import numpy as np
 
 from . import Landmarks, Observations, RobotPose, associate, available_algorithms
@@ -23,8 +26,10 @@ def built_in_scan():
     return landmarks, observations, pose, np.array([0, 1, 2, 3, -1])
 
 
-def main() -> None:
+def main(argv: Optional[list[str]] = None) -> None:
     """Print each algorithm's assignment and how many observations it got right."""
+    argparse.ArgumentParser(prog='da_demo', description=' '.join(__doc__.split())).parse_args(
+        argv)
     landmarks, observations, pose, truth = built_in_scan()
     print('range-bearing scan, shared yaw error 0.12 rad, truth:', truth.tolist())
     print(f'{"algorithm":<20}{"assignment":<26}{"correct":>8}')

@@ -19,6 +19,15 @@ if [ ! -f "$stamp" ]; then
   rm -f "$venv"/.installed-*
   touch "$stamp"
 fi
+# The ROS 2 command-line tools (ros2 run/launch/param/topic, colcon) are not wheels: where their
+# Jazzy sources are vendored beside this repository, install them once per venv (about 45 s);
+# afterwards `source .venv/bin/activate && source .venv/ros2_extra/setup.bash` gives `ros2`.
+vendor="$repo/../shared/vendor/ros2_jazzy_cli"
+if [ -f "$vendor/install.sh" ] && [ ! -f "$venv/.ros2_jazzy_cli" ]; then
+  echo "setup_env.sh: installing ros2 and colcon from $vendor (once, about 45 s)" >&2
+  bash "$vendor/install.sh" "$venv" > "$venv/ros2_jazzy_cli.log" 2>&1 ||
+    { tail -20 "$venv/ros2_jazzy_cli.log" >&2; echo "setup_env.sh: install.sh failed" >&2; exit 1; }
+fi
 # DDS stays on this machine (DESIGN.md 6); each run picks its own domain unless one is given.
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( ($$ % 90) + 5 ))}"

@@ -118,52 +118,83 @@ def score_new_landmarks(truth: dict[int, np.ndarray], truth_xy: dict[int, np.nda
 def evaluate_live(bag: Path, algorithm: str, overrides: dict[str, Any], rate: float,
                   out: Optional[Path] = None) -> dict[str, Any]:
     """Score of `algorithm` through the live node (da_bag_replay); recording kept in `out`."""
-    from .replay import replay, write_recording
+    from .replay import recording_custom_data, replay, write_recording
     _, truth = read_truth(bag)
     node_config(algorithm, overrides)  # check the parameters before starting anything
     result = replay(bag, algorithm, overrides, rate, progress=True)
     with tempfile.TemporaryDirectory() as scratch:
         target = out or Path(scratch) / 'recording'
-        write_recording(target, result)
+        write_recording(target, result, recording_custom_data(bag, algorithm, overrides))
         summary = score_recording(truth, BagReader(target), read_truth_xy(bag)).summary()
     summary['node_alive'] = result.node_alive
     summary['node_rss_mb'] = [round(kb / 1024, 1) for kb in result.node_rss_kb]
     return summary
 
 
-COLUMNS = (('algorithm', 'algorithm', 20, '{}'), ('pair_precision', 'precision', 10, '{:.3f}'),
-           ('pair_recall', 'recall', 8, '{:.3f}'), ('new_correct', 'new ok', 8, '{}'),
-           ('new_false', 'new false', 10, '{}'), ('clutter_paired', 'clutter paired', 15, '{}'),
-           ('answered', 'answered', 10, '{}'), ('landmarks_right', 'lm ok', 7, '{}'),
-           ('landmarks_false', 'lm false', 9, '{}'), ('landmarks_duplicate', '(dup)', 6, '{}'),
-           ('landmarks_missed', 'lm missed', 10, '{}'),
-           ('confirm_delay_scans', 'delay', 7, '{:.1f}'))
-LIVE_COLUMNS = (('latency_median_ms', 'latency p50 ms', 15, '{:.2f}'),
-                ('latency_p95_ms', 'p95 ms', 8, '{:.2f}'),
-                ('latency_p99_ms', 'p99 ms', 8, '{:.2f}'))
-OFFLINE_COLUMNS = (('scans_per_s', 'scans/s', 9, '{:.0f}'),)
+COLUMNS = (('algorithm', 'algorithm', '{}'), ('pair_precision', 'precision', '{:.3f}'),
+           ('pair_recall', 'recall', '{:.3f}'), ('new_correct', 'new_ok', '{}'),
+           ('new_false', 'new_false', '{}'), ('clutter_paired', 'clutter', '{}'),
+           ('answered', 'answered', '{}'), ('landmarks_right', 'lm_ok', '{}'),
+           ('landmarks_false', 'lm_false', '{}'), ('landmarks_duplicate', 'lm_dup', '{}'),
+           ('landmarks_missed', 'lm_missed', '{}'), ('confirm_delay_scans', 'delay', '{:.1f}'))
+LIVE_COLUMNS = (('latency_median_ms', 'p50_ms', '{:.2f}'), ('latency_p95_ms', 'p95_ms', '{:.2f}'),
+                ('latency_p99_ms', 'p99_ms', '{:.2f}'))
+OFFLINE_COLUMNS = (('scans_per_s', 'scans/s', '{:.0f}'),)
+LEGEND = """\
+precision, recall: correct pairs / pairs made, / true pairs; new_ok, new_false: NEW answers for
+observations of landmarks not yet in the map, for anything else; clutter: clutter returns
+paired / clutter returns; answered: observation messages answered / sent; lm_ok, lm_false,
+lm_dup, lm_missed: landmarks announced on new_landmarks that are right, false (of which
+duplicates), true new landmarks never announced; delay: median scans from first sighting to
+announcement; p50_ms, p95_ms, p99_ms: latency publish -> correspondences; -: not applicable"""
+CONFIRM_NOTE = """\
+lm_false is high with confirm_hits 1 (announce at once): every NEW answer, e.g. a clutter return
+outside every gate, becomes a landmark. With -p confirm_hits:=2 a landmark is announced only
+once seen on 2 of confirm_window scans (docs/confirmation.md)."""
+
+
+def cell(value: Any, fmt: str) -> str:
+    """`value` formatted, '-' when missing or NaN."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return '-'
+    return fmt.format(value)
 
 
 def format_table(rows: list[dict[str, Any]], offline: bool) -> str:
-    """A plain-text table, one row per algorithm (first column left-aligned)."""
+    """A plain-text table, one row per algorithm, one-word headers, columns as wide as their
+    widest cell (first column left-aligned, the others right-aligned)."""
     columns = COLUMNS + (OFFLINE_COLUMNS if offline else LIVE_COLUMNS)
-
-    def line(cells):
-        return ''.join(cell.ljust(width) if k == 0 else cell.rjust(width)
-                       for k, (cell, (_, _, width, _)) in enumerate(zip(cells, columns)))
-    lines = [line([title for _, title, _, _ in columns])]
+    table = [[title for _, title, _ in columns]]
     for row in rows:
         row = {**row, 'answered': f'{row["answered"]}/{row["messages"]}',
                'clutter_paired': f'{row["clutter_paired"]}/{row["clutter"]}'}
-        lines.append(line([fmt.format(row[key]) for key, _, _, fmt in columns]))
-    return '\n'.join(lines)
+        table.append([cell(row.get(key), fmt) for key, _, fmt in columns])
+    widths = [max(len(line[k]) for line in table) for k in range(len(columns))]
+    return '\n'.join('  '.join(text.ljust(width) if k == 0 else text.rjust(width)
+                               for k, (text, width) in enumerate(zip(line, widths))).rstrip()
+                      for line in table)
+
+
+def recording_info(out: Path) -> tuple[str, str]:
+    """(algorithm, 'OUT: BAG replayed with ALGORITHM, parameters {...}') from the metadata of
+    a da_bag_replay recording; (OUT's name, 'OUT: no replay metadata ...') without it."""
+    from .replay import RECORDED_ALGORITHM_KEY, RECORDED_BAG_KEY, RECORDED_PARAMETERS_KEY
+    from .rosbag2_metadata import read_custom_data
+    custom = read_custom_data(out) if out.is_dir() else {}
+    if RECORDED_ALGORITHM_KEY not in custom:
+        return out.name, f'{out}: no replay metadata (algorithm and parameters unknown)'
+    algorithm = custom[RECORDED_ALGORITHM_KEY]
+    return algorithm, (f'{out}: {custom.get(RECORDED_BAG_KEY, "?")} replayed with {algorithm}, '
+                       f'parameters {custom.get(RECORDED_PARAMETERS_KEY, "{}")}')
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_bag_eval', description=__doc__.splitlines()[0],
+    parser = argparse.ArgumentParser(prog='da_bag_eval',
+                                     description=' '.join(__doc__.split('\n\n')[0].split()),
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog='\n'.join(__doc__.splitlines()[2:]))
-    parser.add_argument('bag', type=Path, help='bag with inputs and /ground_truth/correspondences')
+    parser.add_argument('bag', type=Path,
+                        help='bag with inputs and /ground_truth/correspondences')
     parser.add_argument('out', type=Path, nargs='?', help='a da_bag_replay recording to score')
     parser.add_argument('--algorithms', help='comma-separated (default: those the bag names)')
     parser.add_argument('--offline', action='store_true', help='run the pipeline without DDS')
@@ -177,7 +208,8 @@ def main(argv: Optional[list[str]] = None) -> int:
         overrides = {**bag_parameters(args.bag), **parse_assignments(args.parameters)}
         if args.out is not None:
             _, truth = read_truth(args.bag)
-            rows = [{'algorithm': str(args.out), **score_recording(
+            label, heading = recording_info(args.out)
+            rows = [{'algorithm': label, **score_recording(
                 truth, BagReader(args.out), read_truth_xy(args.bag)).summary()}]
         else:
             algorithms = args.algorithms.split(',') if args.algorithms else \
@@ -193,8 +225,14 @@ def main(argv: Optional[list[str]] = None) -> int:
     if args.json:
         print(json.dumps(rows, indent=2, default=float))
     else:
-        print(f'{args.bag} ({"offline" if args.offline else "live"})')
+        print(heading if args.out is not None else
+              f'{args.bag} ({"offline" if args.offline else "live"}; parameters '
+              f'{json.dumps(overrides, sort_keys=True)})')
         print(format_table(rows, args.offline))
+        print(LEGEND)
+        if overrides.get('confirm_hits', 1) == 1 and any(
+                row.get('landmarks_false') for row in rows):
+            print(CONFIRM_NOTE)
     return 0 if all(row.get('node_alive', True) for row in rows) else 1
 
 

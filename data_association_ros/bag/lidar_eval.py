@@ -211,12 +211,17 @@ def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0) -> list[Es
         close_graph(context, player, executor)
 
 
+def number(value: float, digits: int) -> str:
+    """`value` with `digits` decimals, '-' when NaN (nothing to score)."""
+    return '-' if np.isnan(value) else f'{value:.{digits}f}'
+
+
 def table_rows(label: str, scores: dict[int, ObjectScore], elapsed: Optional[np.ndarray]) -> str:
-    """One Markdown table row."""
+    """One Markdown table row ('-' where a value is NaN)."""
     cells = [label]
     for key in ('position_rmse', 'heading_rmse_deg', 'velocity_rmse'):
-        cells.append(' / '.join(f'{getattr(scores[i], key):.2f}' if key != 'heading_rmse_deg'
-                                else f'{getattr(scores[i], key):.1f}' for i in sorted(scores)))
+        digits = 1 if key == 'heading_rmse_deg' else 2
+        cells.append(' / '.join(number(getattr(scores[i], key), digits) for i in sorted(scores)))
     cells.append(' / '.join(f'{100 * scores[i].coverage:.0f}' for i in sorted(scores)))
     cells.append(' / '.join(str(scores[i].id_switches) for i in sorted(scores)))
     if elapsed is None or not len(elapsed):
@@ -248,8 +253,10 @@ def parse_values(pairs: Iterable[str]) -> dict:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_lidar_eval', description=__doc__.splitlines()[0])
-    parser.add_argument('bag', nargs='?', type=Path, default=BAG)
+    parser = argparse.ArgumentParser(prog='da_lidar_eval',
+                                     description=' '.join(__doc__.split('\n\n')[0].split()))
+    parser.add_argument('bag', nargs='?', type=Path, default=BAG,
+                        help=f'LiDAR bag with /scan and its truth (default: {BAG})')
     parser.add_argument('--rows', default='default,nearest,polar,polar_kabsch,kabsch,'
                         'nearest_kabsch,velocity,seed',
                         help=f'comma-separated rows (of {", ".join(ROWS)})')

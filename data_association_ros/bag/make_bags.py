@@ -57,7 +57,8 @@ def make_bag(name: str, directory: Path, data: Optional[Path] = None) -> Path:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog='da_make_bags', description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog='da_make_bags',
+                                     description=' '.join(__doc__.split('\n\n')[0].split()))
     from .datasets import DEFAULT_DATA_DIRECTORY, SEQUENCES
     names = list(SCENARIOS) + list(_raw_bags()) + list(SEQUENCES)
     parser.add_argument('names', nargs='*', default=names,

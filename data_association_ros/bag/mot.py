@@ -1,19 +1,25 @@
 """MOTChallenge data as a bag, and box tracking scored with TrackEval.
 
-    da_make_mot_bag [DATA_DIR] [--out bags/mot_tud_campus] [--fps 25]
+    da_make_mot_bag [SEQUENCE_DIR] [--out mot_<sequence>] [--fps 25] [--force]
     da_mot_eval [BAG] [--algorithms iou,mahalanobis_nn,gnn,jcbb] [--min-hits 3] [--max-age 1]
                 [--iou-threshold 0.3]
 
-MOTChallenge text rows: frame, id, bb_left, bb_top, bb_width, bb_height, conf, x, y, z
-(detections: id = -1).  In the bag, frame k is stamped (k - 1) / fps s; /observations holds the
+A sequence folder in the MOTChallenge layout (det/det.txt, gt/gt.txt, seqinfo.ini with the
+frame rate and image size) or flat (det.txt, gt.txt).  Text rows: frame, id, bb_left, bb_top,
+bb_width, bb_height, conf, then x, y, z (MOT15) or class, visibility (MOT16+); detections have
+id -1.  Ground-truth rows the MOT evaluation ignores (conf 0, classes other than pedestrian)
+are dropped.  In the bag, frame k is stamped (k - 1) / fps s; /observations holds the
 detections (x, y = box centre, width, height, score; frame 'camera') and /ground_truth/tracks the
-true boxes (id, x, y, width, height).  Scores (TrackEval's CLEAR, Identity and HOTA on IoU
+true boxes (id, x, y, width, height); its metadata names the sequence.
+
+Scores (TrackEval's CLEAR, Identity and HOTA on IoU
 similarity, MOTA matching at IoU 0.5 as motmetrics does): TrackEval is maintained and runs on
 NumPy 2, where motmetrics 1.4.0 calls the removed np.asfarray.
 """
 from __future__ import annotations
 
 import argparse
+import configparser
 import sys
 import time
 from pathlib import Path
@@ -34,11 +40,46 @@ TRUTH_DTYPE = np.dtype([('id', '<i4'), ('x', '<f4'), ('y', '<f4'), ('width', '<f
                         ('height', '<f4')])
 SORT_PUBLISHED = {'MOTA': 62.7, 'IDF1': 60.6, 'IDSW': 6, 'FP': 15, 'FN': 113}
 """SORT (abewley/sort, default parameters) on these detections, motmetrics at IoU 0.5."""
+SORT_SEQUENCE = 'TUD-Campus'
+"""The only sequence SORT_PUBLISHED belongs to."""
+SEQUENCE_KEY = 'data_association_ros.mot.sequence'
+FPS_KEY = 'data_association_ros.mot.fps'
+IMAGE_SIZE_KEY = 'data_association_ros.mot.image_size'
+"""custom_data keys of a MOT bag: sequence name, frame rate, image size (WIDTHxHEIGHT)."""
+PEDESTRIAN = 1
+
+
+def sequence_files(data: Path) -> tuple[Path, Path, dict[str, str]]:
+    """(det.txt, gt.txt, seqinfo.ini's [Sequence] or {}) of a sequence folder, in the
+    MOTChallenge layout (det/det.txt, gt/gt.txt) or flat (det.txt, gt.txt)."""
+    standard = (data / 'det' / 'det.txt', data / 'gt' / 'gt.txt')
+    det, gt = standard if all(p.is_file() for p in standard) else (data / 'det.txt',
+                                                                      data / 'gt.txt')
+    info: dict[str, str] = {}
+    if (data / 'seqinfo.ini').is_file():
+        parser = configparser.ConfigParser()
+        parser.read(data / 'seqinfo.ini')
+        if parser.has_section('Sequence'):
+            info = dict(parser['Sequence'])
+    return det, gt, info
+
+
+def evaluated_truth(rows: np.ndarray) -> np.ndarray:
+    """The ground-truth rows the MOT evaluation counts: conf (column 7) not 0 and, where
+    column 8 is a class (MOT16+; -1 in MOT15), pedestrians only."""
+    keep = rows[:, 6] != 0
+    if rows.shape[1] > 7:
+        keep &= (rows[:, 7] == PEDESTRIAN) | (rows[:, 7] == -1)
+    return rows[keep]
 
 
 def read_mot(path: Path) -> dict[int, np.ndarray]:
-    """{frame: rows (n, 10)} of a MOTChallenge text file (frames in the file only)."""
-    rows = np.loadtxt(path, delimiter=',', ndmin=2)
+    """{frame: rows (n, columns)} of a MOTChallenge text file (frames in the file only)."""
+    return read_mot_rows(np.loadtxt(path, delimiter=',', ndmin=2))
+
+
+def read_mot_rows(rows: np.ndarray) -> dict[int, np.ndarray]:
+    """{frame: rows} of MOTChallenge rows (frames present only)."""
     return {int(f): rows[rows[:, 0] == f] for f in np.unique(rows[:, 0])}
 
 
@@ -48,19 +89,27 @@ def centre_boxes(rows: np.ndarray) -> np.ndarray:
                             rows[:, 4], rows[:, 5]])
 
 
-def make_mot_bag(data: Path, out: Path, fps: float = 25.0) -> Path:
-    """Write the bag of `data`/det.txt and `data`/gt.txt (see the module docstring)."""
+def make_mot_bag(data: Path, out: Path, fps: Optional[float] = None) -> Path:
+    """Write (replace) the bag `out` of the sequence folder `data` (see the module docstring);
+    fps: seqinfo.ini's frameRate when None (25 without one)."""
     import shutil
 
     from msg_adapters import array_to_cloud
     from std_msgs.msg import Header
 
     from .writer import BagWriter
-    detections, truth = read_mot(data / 'det.txt'), read_mot(data / 'gt.txt')
-    frames = range(1, max(max(detections), max(truth)) + 1)
+    det, gt, info = sequence_files(data)
+    fps = fps if fps is not None else float(info.get('framerate', 25.0))
+    detections = read_mot(det)
+    rows = np.loadtxt(gt, delimiter=',', ndmin=2)
+    truth = read_mot_rows(evaluated_truth(rows))
+    frames = range(1, max(max(detections), max(truth, default=0)) + 1)
+    custom = {SEQUENCE_KEY: info.get('name', data.resolve().name), FPS_KEY: f'{fps:g}'}
+    if 'imwidth' in info and 'imheight' in info:
+        custom[IMAGE_SIZE_KEY] = f'{info["imwidth"]}x{info["imheight"]}'
     if out.exists():
         shutil.rmtree(out)
-    with BagWriter(out, out.name) as bag:
+    with BagWriter(out, out.name, custom_data=custom) as bag:
         for frame in frames:
             stamp_ns = int(round((frame - 1) / fps * 1e9))
             header = Header(frame_id='camera')
@@ -155,38 +204,65 @@ def default_parameters(algorithm: str, iou_threshold: float = 0.3) -> dict:
 
 
 def make_main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_make_mot_bag',
-                                     description='MOTChallenge det.txt + gt.txt -> rosbag2 bag')
-    parser.add_argument('data', type=Path, nargs='?', default=DATA)
-    parser.add_argument('--out', type=Path, default=BAG)
-    parser.add_argument('--fps', type=float, default=25.0)
+    parser = argparse.ArgumentParser(
+        prog='da_make_mot_bag', description='Convert a MOTChallenge sequence (detections and '
+        'ground truth) into a rosbag2 bag for da_mot_eval and box_tracker_node.')
+    parser.add_argument('data', type=Path, nargs='?', default=DATA,
+                        help='sequence folder: det/det.txt, gt/gt.txt [, seqinfo.ini] or det.txt, '
+                             f'gt.txt (default: {DATA})')
+    parser.add_argument('--out', type=Path,
+                        help='output bag directory (default: mot_<sequence> in the current '
+                             'directory); never replaced without --force')
+    parser.add_argument('--fps', type=float,
+                        help="frame rate (default: seqinfo.ini's frameRate, else 25)")
+    parser.add_argument('--force', action='store_true', help='replace --out when it exists')
     args = parser.parse_args(argv)
-    for name in ('det.txt', 'gt.txt'):
-        if not (args.data / name).is_file():
-            print(f'da_make_mot_bag: {args.data / name} not found', file=sys.stderr)
+    det, gt, info = sequence_files(args.data)
+    for path in (det, gt):
+        if not path.is_file():
+            print(f'da_make_mot_bag: {path} not found (expected det/det.txt and gt/gt.txt, or '
+                  f'det.txt and gt.txt, in {args.data})', file=sys.stderr)
             return 2
-    print(make_mot_bag(args.data, args.out, args.fps))
+    name = info.get('name', args.data.resolve().name)
+    out = args.out or Path('mot_' + name.lower().replace('-', '_'))
+    if out.exists() and not args.force:
+        print(f'da_make_mot_bag: {out} exists; choose another --out or add --force to replace '
+              'it', file=sys.stderr)
+        return 2
+    print(make_mot_bag(args.data, out, args.fps))
     return 0
 
 
 def eval_main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_mot_eval', description=__doc__.splitlines()[0])
-    parser.add_argument('bag', type=Path, nargs='?', default=BAG)
-    parser.add_argument('--algorithms', default='iou,mahalanobis_nn,gnn,jcbb')
-    parser.add_argument('--min-hits', type=int, default=3)
-    parser.add_argument('--max-age', type=int, default=1)
-    parser.add_argument('--iou-threshold', type=float, default=0.3)
+    parser = argparse.ArgumentParser(
+        prog='da_mot_eval', description='Track the boxes of a MOT bag (da_make_mot_bag) with '
+        'each associator in SORT\'s tracker and score them with TrackEval.')
+    parser.add_argument('bag', type=Path, nargs='?', default=BAG,
+                        help=f'MOT bag (default: {BAG})')
+    parser.add_argument('--algorithms', default='iou,mahalanobis_nn,gnn,jcbb',
+                        help='comma-separated box associators (default: %(default)s)')
+    parser.add_argument('--min-hits', type=int, default=3,
+                        help='a track is reported once updated on this many frames in a row '
+                             '(default: %(default)s)')
+    parser.add_argument('--max-age', type=int, default=1,
+                        help='a track not updated for more than this many frames is deleted '
+                             '(default: %(default)s)')
+    parser.add_argument('--iou-threshold', type=float, default=0.3,
+                        help='iou: pairs below this IoU are rejected (default: %(default)s)')
     parser.add_argument('--noise-scale', type=float, default=1.0,
                         help="multiplies SORT's R and Q (covariance-gated associators)")
     args = parser.parse_args(argv)
-    print(f'{args.bag} (min_hits {args.min_hits}, max_age {args.max_age}, noise_scale '
-          f'{args.noise_scale:g})')
-    print(f'{"tracker":<22}{"MOTA %":>8}{"IDF1 %":>8}{"HOTA %":>8}{"IDSW":>6}{"FP":>6}{"FN":>6}'
-          f'{"frames/s":>10}')
-    s = SORT_PUBLISHED
-    print(f'{"SORT (published)":<22}{s["MOTA"]:>8.1f}{s["IDF1"]:>8.1f}{"":>8}{s["IDSW"]:>6}'
-          f'{s["FP"]:>6}{s["FN"]:>6}{"":>10}')
     try:
+        sequence = mot_sequence(args.bag)
+        read_mot_bag(args.bag)   # a clear error before the table when the bag is unusable
+        print(f'{args.bag} ({sequence or "sequence unknown"}; min_hits {args.min_hits}, max_age '
+              f'{args.max_age}, noise_scale {args.noise_scale:g})')
+        print(f'{"tracker":<22}{"MOTA%":>8}{"IDF1%":>8}{"HOTA%":>8}{"IDSW":>6}{"FP":>6}{"FN":>6}'
+              f'{"frames/s":>10}')
+        if sequence == SORT_SEQUENCE:
+            s = SORT_PUBLISHED
+            print(f'{"SORT (published)":<22}{s["MOTA"]:>8.1f}{s["IDF1"]:>8.1f}{"-":>8}'
+                  f'{s["IDSW"]:>6}{s["FP"]:>6}{s["FN"]:>6}{"-":>10}')
         for algorithm in args.algorithms.split(','):
             r = evaluate(args.bag, algorithm, args.min_hits, args.max_age,
                          default_parameters(algorithm, args.iou_threshold), args.noise_scale)
@@ -195,4 +271,13 @@ def eval_main(argv: Optional[list[str]] = None) -> int:
     except (BagError, ValueError) as error:
         print(f'da_mot_eval: {error}', file=sys.stderr)
         return 2
+    print('MOTA%, IDF1%, HOTA%: CLEAR MOTA, identity F1 and HOTA (IoU 0.5); IDSW: identity\n'
+          'switches; FP, FN: false and missed boxes; frames/s: tracker loop speed; -: not '
+          'measured')
     return 0
+
+
+def mot_sequence(bag: Path) -> Optional[str]:
+    """The sequence name in a MOT bag's metadata (None when not recorded)."""
+    from .rosbag2_metadata import read_custom_data
+    return read_custom_data(bag).get(SEQUENCE_KEY) if Path(bag).is_dir() else None

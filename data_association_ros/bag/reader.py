@@ -17,7 +17,29 @@ from .rosbag2_metadata import read_metadata
 
 
 class BagError(RuntimeError):
-    """A bag that cannot be read: missing, truncated, corrupt, or without a wanted topic."""
+    """A bag that cannot be read: missing, truncated, corrupt, not MCAP, or without a wanted
+    topic of the wanted type."""
+
+
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+SQLITE_MAGIC = b'SQLite format 3\x00'
+
+
+def sqlite_error(path: Path) -> BagError:
+    """The error for a rosbag2 sqlite3 bag: only MCAP is read; how to convert it."""
+    return BagError(
+        f'{path}: a sqlite3 (.db3) bag; only the MCAP storage is read. Convert it on a ROS 2 '
+        f'install: ros2 bag convert -i {path} -o out.yaml, where out.yaml holds '
+        f'"output_bags: [{{uri: {path.name}_mcap, storage_id: mcap}}]"')
+
+
+def _file_kind(path: Path) -> str:
+    """'mcap', 'sqlite3' or 'other', from the file's first bytes."""
+    with open(path, 'rb') as stream:
+        head = stream.read(len(SQLITE_MAGIC))
+    if head.startswith(MCAP_MAGIC):
+        return 'mcap'
+    return 'sqlite3' if head.startswith(SQLITE_MAGIC) else 'other'
 
 
 @dataclass
@@ -47,14 +69,24 @@ class BagReader:
                     f['path'] for f in metadata.get('files', [])]
             except Exception as error:
                 raise BagError(f'{self.path / "metadata.yaml"}: unreadable ({error})') from None
+            if metadata.get('storage_identifier') == 'sqlite3':
+                raise sqlite_error(self.path)
             self.files = [self.path / name for name in names]
         else:
             self.files = sorted(self.path.glob('*.mcap'))
+            if not self.files and any(self.path.glob('*.db3')):
+                raise sqlite_error(self.path)
         if not self.files:
-            raise BagError(f'{self.path}: no .mcap file')
+            raise BagError(f'{self.path}: not a bag (no metadata.yaml and no .mcap file)')
         for file in self.files:
             if not file.is_file():
                 raise BagError(f'{file}: listed in metadata.yaml but missing')
+            kind = _file_kind(file)
+            if kind == 'sqlite3':
+                raise sqlite_error(file)
+            if kind != 'mcap':
+                raise BagError(f'{file}: not a bag (neither an MCAP file nor a rosbag2 bag '
+                               'directory)')
         self.topics: dict[str, str] = {}
         self.skipped_types: Counter = Counter()
         """Messages skipped because their type is not installed, by type name."""
@@ -81,16 +113,35 @@ class BagReader:
                 raise BagError(f'{self.path}: this bag has no {topic} topic (it has '
                                f'{", ".join(sorted(self.topics)) or "no topics"})')
 
+    def check_type(self, topic: str) -> None:
+        """BagError naming `topic`, its type and the expected one when the bag tools cannot
+        read it: another type than topics.EXPECTED_TYPES lists, or a type not installed."""
+        from .topics import EXPECTED_TYPES
+        found = self.topics[topic]
+        parts = found.split('/')
+        normal = f'{parts[0]}/msg/{parts[1]}' if len(parts) == 2 else found
+        expected = EXPECTED_TYPES.get(topic, ())
+        try:
+            message_class(found)
+            installed = True
+        except MessageTypeError:
+            installed = False
+        if (expected and normal not in expected) or not installed:
+            raise BagError(f'{self.path}: topic {topic} has type {found or "(no schema)"}'
+                           f'{"" if installed else " (not installed here)"}, expected '
+                           f'{" or ".join(expected) or "an installed type"}')
+
     def messages(self, topics: Optional[Iterable[str]] = None,
                  deserialize: bool = True) -> Iterator[BagMessage]:
         """Messages of `topics` (all when None) in log-time order.  With deserialize, a wanted
-        topic whose type is not installed raises; unwanted ones are skipped."""
+        topic of an unexpected or uninstalled type raises BagError (check_type); messages of
+        other topics whose type is not installed are skipped."""
         wanted = None if topics is None else set(topics)
         if wanted is not None:
             self.require(wanted)
             if deserialize:
-                for topic in wanted:
-                    message_class(self.topics[topic])
+                for topic in sorted(wanted):
+                    self.check_type(topic)
         for file in self.files:
             try:
                 with open(file, 'rb') as stream:

@@ -4,11 +4,14 @@ Starts the node as a separate process with the given parameters, publishes the b
 topics with the recorded timing scaled by --rate, records every /correspondences and
 /new_landmarks message (log time = arrival) together with the observations as sent (log time =
 send) into OUT, waits for the last answer and exits non-zero if the node died or answers are
-missing.  DDS stays on loopback with a domain id of its own.
+missing.  OUT's metadata (custom_data) names the bag, the algorithm and the parameters; an
+existing OUT is replaced only with --force.  DDS stays on loopback with a domain id of its own.
 """
 from __future__ import annotations
 
 import argparse
+import json
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -17,7 +20,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
 
+from ..pipelines.parameters import BY_NAME
 from .parameter_arguments import parse_assignments
+from .offline import node_config
 from .reader import BagError, BagReader
 from .ros_environment import (association_node_command, close_graph, open_graph,
                               stop_processes)
@@ -28,6 +33,10 @@ WAIT_FOR_ANSWERS_S = 10.0
 SETTLE_S = 1.0
 DRAIN_S = 0.3
 """Spinning after the last answer, for the outputs published after it."""
+RECORDED_BAG_KEY = 'data_association_ros.recorded.bag'
+RECORDED_ALGORITHM_KEY = 'data_association_ros.recorded.algorithm'
+RECORDED_PARAMETERS_KEY = 'data_association_ros.recorded.parameters'
+"""custom_data keys of a recording: the bag played, the algorithm, the parameters (JSON)."""
 
 
 @dataclass
@@ -78,11 +87,12 @@ def _stamp_key(msg) -> tuple[int, int]:
     return msg.header.stamp.sec, msg.header.stamp.nanosec
 
 
-def _progress(done: int, total: int) -> None:
+def _progress(label: str, done: int, total: int) -> None:
     if sys.stderr.isatty():
         width = 30
         filled = int(width * done / max(total, 1))
-        sys.stderr.write(f'\r[{"#" * filled}{"." * (width - filled)}] {done}/{total}')
+        sys.stderr.write(f'\r{label} [{"#" * filled}{"." * (width - filled)}] {done}/{total}'
+                         ' scans')
         if done == total:
             sys.stderr.write('\n')
         sys.stderr.flush()
@@ -149,7 +159,7 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
                 if result.sent % 50 == 1:
                     result.node_rss_kb.append(resident_kb(process.pid))
                 if progress:
-                    _progress(result.sent, total)
+                    _progress(f'{algorithm} on {bag.name}', result.sent, total)
             publishers[topic].publish(msg)
             if topic == topics.OBSERVATIONS and result.sent == restart_after:
                 process.kill()
@@ -180,19 +190,34 @@ def replay(bag: Path, algorithm: str, parameters: dict[str, Any], rate: float = 
     return result
 
 
-def write_recording(out: Path, result: ReplayResult) -> None:
-    """OUT: the observations as sent and the node's outputs as received, in a bag."""
+def recording_custom_data(bag: Path, algorithm: str,
+                          parameters: dict[str, Any]) -> dict[str, str]:
+    """custom_data of a recording: what was played, with which algorithm and parameters."""
+    return {RECORDED_BAG_KEY: str(bag), RECORDED_ALGORITHM_KEY: algorithm,
+            RECORDED_PARAMETERS_KEY: json.dumps(parameters, sort_keys=True)}
+
+
+def write_recording(out: Path, result: ReplayResult,
+                    custom_data: Optional[dict[str, str]] = None) -> None:
+    """OUT: the observations as sent and the node's outputs as received, in a bag whose
+    metadata carries `custom_data` (recording_custom_data)."""
     from .writer import BagWriter
-    with BagWriter(out) as bag:
+    with BagWriter(out, custom_data=custom_data) as bag:
         for topic, msg, log_time in sorted(result.recorded, key=lambda r: r[2]):
             bag.write(topic, msg, log_time)
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_bag_replay', description=__doc__.splitlines()[0])
-    parser.add_argument('bag', type=Path)
-    parser.add_argument('--algorithm', required=True)
-    parser.add_argument('--out', type=Path, required=True, help='output bag directory')
+    parser = argparse.ArgumentParser(prog='da_bag_replay', 
+                                     description=' '.join(__doc__.split('\n\n')[0].split()))
+    parser.add_argument('bag', type=Path, help='bag with /landmarks and /observations (MCAP)')
+    algorithms = BY_NAME['algorithm'].choices
+    parser.add_argument('--algorithm', required=True, choices=algorithms, metavar='NAME',
+                        help='association_node algorithm: ' + ', '.join(algorithms))
+    parser.add_argument('--out', type=Path, required=True,
+                        help='output bag directory (must not exist, unless --force)')
+    parser.add_argument('--force', action='store_true',
+                        help='replace OUT when it exists (only a bag directory is replaced)')
     parser.add_argument('--rate', type=float, default=1.0,
                         help='playback rate factor (0: as fast as the answers allow)')
     parser.add_argument('-p', dest='parameters', action='append', default=[],
@@ -202,13 +227,18 @@ def main(argv: Optional[list[str]] = None) -> int:
                              'start a new one; the gap is reported')
     args = parser.parse_args(argv)
     try:
+        check_out(args.out, args.force)
         parameters = {**bag_parameters(args.bag), **parse_assignments(args.parameters)}
+        node_config(args.algorithm, parameters)   # the combination, before starting anything
         result = replay(args.bag, args.algorithm, parameters, args.rate,
                         restart_after=args.kill_node_after)
     except (BagError, ValueError) as error:
         print(f'da_bag_replay: {error}', file=sys.stderr)
         return 2
-    write_recording(args.out, result)
+    if args.out.exists():
+        shutil.rmtree(args.out)
+    write_recording(args.out, result, recording_custom_data(args.bag, args.algorithm,
+                                                            parameters))
     print(f'{args.out}: {result.sent} observation messages sent, {result.answered} answered')
     gaps = result.gaps()
     if gaps:
@@ -226,6 +256,17 @@ def main(argv: Optional[list[str]] = None) -> int:
               f'{result.node_log[-2000:]}', file=sys.stderr)
         return 1
     return 0
+
+
+def check_out(out: Path, force: bool) -> None:
+    """BagError unless `out` is free, or (with `force`) a bag directory that may be replaced."""
+    if not out.exists():
+        return
+    if not force:
+        raise BagError(f'{out} exists; choose another --out or add --force to replace it')
+    if not out.is_dir() or not ((out / 'metadata.yaml').is_file() or any(out.glob('*.mcap'))):
+        raise BagError(f'{out} exists and is not a bag directory: not replaced, even with '
+                       '--force')
 
 
 def bag_parameters(bag: Path) -> dict[str, Any]:

@@ -115,8 +115,9 @@ def format_table(rows: list[dict[str, Any]], markdown: bool = False) -> str:
         lines += ['| ' + ' | '.join(cell(row, key, fmt) for key, _, _, fmt in COLUMNS) + ' |'
                   for row in rows]
         return '\n'.join(lines)
+    words = [title.replace(' %', '%').replace(' ', '_') for _, title, _, _ in COLUMNS]
     lines = [''.join(title.ljust(w) if k < 3 else title.rjust(w)
-                     for k, (_, title, w, _) in enumerate(COLUMNS))]
+                     for k, (title, (_, _, w, _)) in enumerate(zip(words, COLUMNS)))]
     for row in rows:
         lines.append(''.join(cell(row, key, fmt).ljust(w) if k < 3 else
                              cell(row, key, fmt).rjust(w)
@@ -125,12 +126,14 @@ def format_table(rows: list[dict[str, Any]], markdown: bool = False) -> str:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    parser = argparse.ArgumentParser(prog='da_slam_eval', description=__doc__.splitlines()[0],
+    parser = argparse.ArgumentParser(prog='da_slam_eval',
+                                     description=' '.join(__doc__.split('\n\n')[0].split()),
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog='\n'.join(__doc__.splitlines()[2:]))
     parser.add_argument('bags', type=Path, nargs='*',
                         help='SLAM bags (default: every one in the repository\'s bags/)')
-    parser.add_argument('--algorithms', default=','.join(DEFAULT_ALGORITHMS))
+    parser.add_argument('--algorithms', default=','.join(DEFAULT_ALGORITHMS),
+                        help='comma-separated association algorithms (default: %(default)s)')
     parser.add_argument('--modes', default=','.join(MODES),
                         help='ground_truth (oracle) and/or node (closed loop)')
     parser.add_argument('--steps', type=int, help='only the first STEPS scans of each bag')

@@ -23,6 +23,17 @@ GROUND_TRUTH_POSE = '/ground_truth/pose'
 GROUND_TRUTH_LANDMARKS = '/ground_truth/landmarks'
 SLAM_MAP = '/slam_map'
 SLAM_POSE = '/slam_pose'
+POINT_CLOUD, ODOMETRY_TYPE = 'sensor_msgs/msg/PointCloud2', 'nav_msgs/msg/Odometry'
+EXPECTED_TYPES = {
+    LANDMARKS: (POINT_CLOUD, 'geometry_msgs/msg/PoseArray'), OBSERVATIONS: (POINT_CLOUD,),
+    ROBOT_POSE: (ODOMETRY_TYPE,), ODOMETRY: (ODOMETRY_TYPE,),
+    STATE_COVARIANCE: ('std_msgs/msg/Float64MultiArray',), GROUND_TRUTH: (POINT_CLOUD,),
+    CORRESPONDENCES: (POINT_CLOUD,), NEW_LANDMARKS: (POINT_CLOUD,),
+    SENSOR_OBSERVATIONS: (POINT_CLOUD,), GROUND_TRUTH_POSE: (ODOMETRY_TYPE,),
+    GROUND_TRUTH_LANDMARKS: (POINT_CLOUD,), SLAM_MAP: (POINT_CLOUD,), SLAM_POSE: (ODOMETRY_TYPE,),
+    '/ground_truth/tracks': (POINT_CLOUD,), '/ground_truth/objects': (POINT_CLOUD,),
+    '/scan': ('sensor_msgs/msg/LaserScan',)}
+"""The message types the bag tools read on each topic (BagReader checks them)."""
 INPUT_TOPICS = (LANDMARKS, ROBOT_POSE, ODOMETRY, STATE_COVARIANCE, OBSERVATIONS)
 OUTPUT_TOPICS = (CORRESPONDENCES, NEW_LANDMARKS)
 INPUT_LEAD_NS = 10_000_000

@@ -1,5 +1,12 @@
 """association_node: landmarks + observations in, correspondences and new landmarks out.
 
+Subscribes `landmarks` (PointCloud2, or PoseArray), `observations` (PointCloud2), `robot_pose`
+(Odometry), `state_covariance` (Float64MultiArray, optional) and `odometry` (multi_hypothesis);
+publishes per observation message `correspondences` (PointCloud2: observation, landmark id or
+-1 NEW / -2 UNASSOCIATED, nis, ...), `new_landmarks`, `landmark_candidates`,
+`estimated_transform`, `pose_hypotheses`, `past_associations`, `association_markers`, and
+`/diagnostics` (README "Topics").
+
 Thin by design (DESIGN.md 2): parameters, subscriptions and publishing; the work (time
 matching, adapters, the core) is AssociationPipeline's.  No input is ever fatal.
 """
@@ -18,10 +25,9 @@ from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import diagnostics_message
 
-from ..core import InvalidInputError
 from ..pipelines.association import AssociationPipeline
 from ..pipelines.parameters import NODE_PARAMETERS, check_combination
-from .parameterized_node import ParameterizedNode, spin
+from .parameterized_node import ParameterizedNode, spin, usage_text
 
 MAX_WAITING = 10
 """Observation messages waiting for their pose; beyond, the oldest is answered at once."""
@@ -33,11 +39,6 @@ class AssociationNode(ParameterizedNode):
     def __init__(self, **kwargs) -> None:
         super().__init__('association_node', NODE_PARAMETERS, check_combination, **kwargs)
         config = self.config
-        try:
-            check_combination(config)
-        except InvalidInputError as error:
-            config['confirm_window'] = max(config['confirm_window'], config['confirm_hits'])
-            self.get_logger().error(f'{error}; using confirm_window {config["confirm_window"]}')
         self.pipeline = AssociationPipeline(config, warn=self.get_logger().warning)
 
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
@@ -146,7 +147,8 @@ class AssociationNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `association_node` executable."""
-    spin(AssociationNode, args)
+    spin(AssociationNode, args, usage_text('association_node', __doc__, NODE_PARAMETERS,
+                                           'README.md "Parameters"'))
 
 
 if __name__ == '__main__':

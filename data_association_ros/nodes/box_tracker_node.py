@@ -21,7 +21,7 @@ from ..core.associators import REGISTRY
 from ..core.parameters import ParameterSpec
 from ..core.tracking import BoxTracker
 from ..pipelines.parameters import BY_NAME, NodeParameter
-from .parameterized_node import ParameterizedNode, spin
+from .parameterized_node import ParameterizedNode, spin, usage_text
 
 TRACK_DTYPE = np.dtype([('id', '<i4'), ('x', '<f4'), ('y', '<f4'), ('width', '<f4'),
                         ('height', '<f4')])
@@ -85,7 +85,8 @@ class BoxTrackerNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `box_tracker_node` executable."""
-    spin(BoxTrackerNode, args)
+    spin(BoxTrackerNode, args,
+         usage_text('box_tracker_node', __doc__, TRACKER_PARAMETERS, 'docs/mot.md'))
 
 
 if __name__ == '__main__':

@@ -20,7 +20,7 @@ from sensor_msgs.msg import PointCloud2
 from msg_adapters import diagnostics_message
 
 from ..pipelines.slam import SLAM_PARAMETERS, SlamPipeline
-from .parameterized_node import ParameterizedNode, spin
+from .parameterized_node import ParameterizedNode, spin, usage_text
 
 QOS_DEPTH = 100
 OUTPUT_TYPES = {'landmarks': PointCloud2, 'robot_pose': Odometry,
@@ -82,7 +82,7 @@ class EkfSlamNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `ekf_slam_node` executable."""
-    spin(EkfSlamNode, args)
+    spin(EkfSlamNode, args, usage_text('ekf_slam_node', __doc__, SLAM_PARAMETERS, 'docs/slam.md'))
 
 
 if __name__ == '__main__':

@@ -29,7 +29,7 @@ from ..core import InvalidInputError
 from ..core.lidar import PARAMETERS, LidarObjectTracker, TrackerConfig
 from ..core.parameters import ParameterSpec
 from ..pipelines.parameters import NodeParameter
-from .parameterized_node import ParameterizedNode, spin
+from .parameterized_node import ParameterizedNode, spin, usage_text
 
 RESTART_AFTER_S = 1.0
 """A scan this much older than the previous one restarts the tracker."""
@@ -130,7 +130,8 @@ class LidarTrackerNode(ParameterizedNode):
 
 def main(args: Optional[list[str]] = None) -> None:
     """Entry point of the `lidar_tracker_node` executable."""
-    spin(LidarTrackerNode, args)
+    spin(LidarTrackerNode, args,
+         usage_text('lidar_tracker_node', __doc__, LIDAR_NODE_PARAMETERS, 'docs/lidar.md'))
 
 
 if __name__ == '__main__':

@@ -1,7 +1,12 @@
 """A Node whose parameters come from NodeParameter declarations: declared with descriptors,
-validated in one callback (with a cross-parameter check), applied in another (DESIGN.md 4)."""
+validated in one callback (with a cross-parameter check), applied in another (DESIGN.md 4).
+
+At start-up an invalid value of any parameter (out of range, wrong type, not one of the
+choices, or in conflict with another) stops the node: one line naming the parameter, the value
+and the valid values, exit code 1.  `--help` prints the node's usage without starting ROS."""
 from __future__ import annotations
 
+import signal
 import sys
 from typing import Any, Callable, Optional, Sequence
 
@@ -9,6 +14,7 @@ import rclpy
 
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -32,6 +38,23 @@ def descriptor(parameter: NodeParameter) -> ParameterDescriptor:
     return result
 
 
+class StartupParameterError(Exception):
+    """An invalid parameter given at start-up: the node does not start (one-line message)."""
+
+
+def refusal(node: str, parameter: NodeParameter, value: Any) -> str:
+    """One line: the node, the parameter, the value given, why it is refused, the valid values."""
+    try:
+        parameter.check(value)
+        reason = f'expected a value of type {type(parameter.default).__name__}'
+    except InvalidInputError as error:
+        reason = str(error).removeprefix(f'{parameter.name}: ')
+    valid = parameter.range_text()
+    if valid not in reason:
+        reason += f' (valid: {valid})'
+    return f'{node}: invalid parameter {parameter.name}:={value!r}: {reason}; not started'
+
+
 class ParameterizedNode(Node):
     """Declares `parameters`; `config` holds the values in force; `combination(config)` raises
     InvalidInputError when values valid one by one conflict; `on_change()` runs after a set."""
@@ -42,16 +65,33 @@ class ParameterizedNode(Node):
         self._declared = {p.name: p for p in parameters}
         self._combination = combination
         self.config: dict[str, Any] = {}
-        for parameter in parameters:
-            self.declare_parameter(parameter.name, parameter.default, descriptor(parameter))
-            try:
-                self.config[parameter.name] = parameter.check(
-                    self.get_parameter(parameter.name).value)
-            except InvalidInputError as error:
-                self.get_logger().error(f'{error}; using the default {parameter.default!r}')
-                self.config[parameter.name] = parameter.default
+        try:
+            self._declare(parameters)
+        except StartupParameterError:
+            self.destroy_node()
+            raise
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+
+    def _declare(self, parameters: Sequence[NodeParameter]) -> None:
+        """Declare and check every parameter; StartupParameterError at the first invalid one."""
+        for parameter in parameters:
+            try:
+                self.declare_parameter(parameter.name, parameter.default, descriptor(parameter))
+            except (InvalidParameterTypeException, InvalidParameterValueException):
+                # rclpy keeps the refused override only in this attribute
+                given = self._parameter_overrides[parameter.name].value
+                raise StartupParameterError(refusal(self.get_name(), parameter, given)) from None
+            value = self.get_parameter(parameter.name).value
+            try:
+                self.config[parameter.name] = parameter.check(value)
+            except InvalidInputError:
+                raise StartupParameterError(refusal(self.get_name(), parameter, value)) from None
+        try:
+            self._combination(self.config)
+        except InvalidInputError as error:
+            raise StartupParameterError(f'{self.get_name()}: invalid parameters: {error}; '
+                                        'not started') from None
 
     def on_change(self) -> None:
         """Called after parameters were applied (override)."""
@@ -80,10 +120,48 @@ class ParameterizedNode(Node):
         self.on_change()
 
 
-def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None) -> None:
-    """Entry point of an executable: init, spin `node_class()` until Ctrl-C or shutdown."""
-    rclpy.init(args=args if args is not None else sys.argv)
-    node = node_class()
+def usage_text(node: str, doc: str, parameters: Sequence[NodeParameter], table: str) -> str:
+    """The `--help` text: what the node does and its topics (`doc`), how to run it, and its
+    parameters with defaults and valid values (the full table is in `table`)."""
+    width = max(len(p.name) for p in parameters)
+    rows = [f'  {p.name:<{width}}  {p.default!r:<14} valid: {p.range_text()}'
+            + (' (read-only)' if p.read_only else '') for p in parameters]
+    return '\n'.join([
+        f'usage: ros2 run data_association_ros {node} [--ros-args -p NAME:=VALUE ...]', '',
+        doc.strip(), '',
+        f'Parameters (full table with meanings: {table}; at run time: '
+        f'ros2 param describe /{node} NAME):', *rows])
+
+
+def _interrupt_once() -> None:
+    """SIGINT raises KeyboardInterrupt the first time only.  Ctrl-C under `ros2 launch` reaches
+    a node twice (from the terminal and forwarded by launch): the second must not interrupt the
+    clean-up with a traceback.  Installed before rclpy.init, whose handler calls this one."""
+    raised = []
+
+    def handler(signum, frame) -> None:
+        if not raised:
+            raised.append(signum)
+            raise KeyboardInterrupt
+    signal.signal(signal.SIGINT, handler)
+
+
+def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
+         usage: str = '') -> None:
+    """Entry point of an executable: `usage` for --help/-h (ROS not started); else init, spin
+    `node_class()` until Ctrl-C or shutdown; exit 1 with one line on an invalid parameter."""
+    args = args if args is not None else sys.argv
+    own = args[:args.index('--ros-args')] if '--ros-args' in args else args
+    if usage and ('--help' in own or '-h' in own):
+        print(usage)
+        return
+    _interrupt_once()
+    rclpy.init(args=args)
+    try:
+        node = node_class()
+    except StartupParameterError as error:
+        rclpy.shutdown()
+        sys.exit(str(error))
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
@@ -92,3 +170,6 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None) -> No
         node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
+        # else the interpreter's exit restores the default action: a late second SIGINT
+        # would end the process by the signal (exit code -2) instead of 0
+        signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -1,0 +1,282 @@
+"""The package used with the real ROS 2 tools, as a ROS user does (README "Running the node"):
+`colcon build` in a workspace, then from its install/setup.bash `ros2 run`, `ros2 param
+set|describe|dump`, `ros2 launch` of every launch file, `ros2 topic echo` while a bag is played
+into the launched node, and Ctrl-C (SIGINT) to the launch.
+
+The tools are not wheels: they come from ../shared/vendor/ros2_jazzy_cli (scripts/setup_env.sh
+installs them into .venv); without that folder these tests are skipped.  Every ros2 call runs
+with this run's ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the ros2 daemon the
+verbs start is stopped at the end."""
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+VENDOR = REPO.parent / 'shared' / 'vendor' / 'ros2_jazzy_cli'
+VENV = Path(sys.prefix)
+BAG = REPO / 'bags' / 'easy_point_map'
+UP_S = 30.0
+DOWN_S = 20.0
+
+pytestmark = pytest.mark.skipif(
+    not (VENDOR / 'install.sh').is_file(),
+    reason=f'the ROS 2 command-line tools are not vendored here ({VENDOR} absent): no ros2 '
+           'or colcon to test with (README "ros2 and colcon")')
+
+
+class Tools:
+    """Runs shell commands with the venv, the vendored tools and the workspace sourced."""
+
+    def __init__(self, setup: Path, env: dict[str, str]) -> None:
+        self.setup = setup
+        self.env = env
+
+    def argv(self, command: str) -> list[str]:
+        return ['bash', '-c', f'source {shlex.quote(str(self.setup))} && exec {command}']
+
+    def run(self, command: str, timeout: float = 60.0) -> subprocess.CompletedProcess:
+        """`command` to completion; stdout and stderr merged into .stdout."""
+        return subprocess.run(self.argv(command), env=self.env, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True, timeout=timeout)
+
+    def param(self, arguments: str) -> str:
+        """Output of `ros2 param ARGUMENTS`, asked again while the node is not yet in the
+        graph the ros2 daemon sees (it starts with the first verb and discovers afresh)."""
+        deadline = time.monotonic() + UP_S
+        while True:
+            output = self.run(f'ros2 param {arguments}').stdout
+            if 'Node not found' not in output or time.monotonic() > deadline:
+                return output
+            time.sleep(0.5)
+
+    def start(self, command: str, log: Path) -> subprocess.Popen:
+        """`command` in the background, output to `log`."""
+        with open(log, 'wb') as out:
+            return subprocess.Popen(self.argv(command), env=self.env, stdout=out,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _environment() -> dict[str, str]:
+    env = dict(os.environ)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env['ROS_DOMAIN_ID'] = os.environ['ROS_DOMAIN_ID']   # set by conftest.py for this run
+    env.pop('PYTHONPATH', None)
+    return env
+
+
+@pytest.fixture(scope='module')
+def tools(tmp_path_factory) -> Tools:
+    """The package built by colcon in a temporary workspace (once for this module)."""
+    env = _environment()
+    installed = subprocess.run(['bash', str(VENDOR / 'install.sh'), str(VENV)], env=env,
+                               capture_output=True, text=True)
+    assert installed.returncode == 0, installed.stderr[-2000:]
+    ws = tmp_path_factory.mktemp('ws')
+    shutil.copytree(REPO, ws / 'src' / 'data_association_ros', ignore=shutil.ignore_patterns(
+        '.venv', '.git', '__pycache__', '*.egg-info', 'build', 'install', 'log', '.pytest_cache',
+        '.hypothesis'))
+    setup = ws / 'env.bash'
+    setup.write_text(f'export PATH={shlex.quote(str(VENV / "bin"))}:"$PATH"\n'
+                     f'source {shlex.quote(str(VENV / "ros2_extra" / "setup.bash"))}\n')
+    build = Tools(setup, env).run(f'colcon --log-base {ws}/log build --base-paths {ws}/src '
+                                  f'--build-base {ws}/build --install-base {ws}/install',
+                                  timeout=300)
+    assert build.returncode == 0, build.stdout[-3000:]
+    install = shlex.quote(str(ws / 'install' / 'setup.bash'))
+    setup.write_text(setup.read_text() + f'source {install}\n')
+    yield Tools(setup, env)
+    Tools(setup, env).run('ros2 daemon stop', timeout=30)
+
+
+def wait_for(log: Path, pattern: str, process: subprocess.Popen, timeout: float = UP_S) -> str:
+    """The log text once `pattern` occurs in it; fails when the process ends first."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        text = log.read_text(errors='replace')
+        if re.search(pattern, text):
+            return text
+        assert process.poll() is None, \
+            f'ended (exit {process.returncode}) before {pattern!r}:\n{text}'
+        time.sleep(0.2)
+    raise AssertionError(f'no {pattern!r} after {timeout} s:\n{log.read_text(errors="replace")}')
+
+
+def stop(process: subprocess.Popen) -> None:
+    """SIGKILL to the process group that `Tools.start` made for `process`."""
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+
+
+def interrupt(process: subprocess.Popen, log: Path) -> str:
+    """SIGINT to `process` and its children (Ctrl-C in its terminal); its log once it has
+    ended with exit code 0."""
+    os.killpg(process.pid, signal.SIGINT)
+    try:
+        code = process.wait(timeout=DOWN_S)
+    except subprocess.TimeoutExpired:
+        stop(process)
+        raise AssertionError(f'still running {DOWN_S} s after SIGINT:\n{log.read_text()}')
+    text = log.read_text(errors='replace')
+    assert code == 0, text
+    assert 'Traceback' not in text, text
+    return text
+
+
+def dump(tools: Tools, node: str) -> dict:
+    """The node's parameters as `ros2 param dump` gives them."""
+    output = tools.param(f'dump {node}')
+    assert output.startswith(f'{node}:'), output
+    return yaml.safe_load(output)[node]['ros__parameters']
+
+
+def test_colcon_build_installs_the_nodes_launch_files_and_config(tools):
+    result = tools.run('ros2 pkg executables data_association_ros')
+    executables = {line.split()[1] for line in result.stdout.splitlines() if line.strip()}
+    assert {'association_node', 'ekf_slam_node', 'box_tracker_node', 'lidar_tracker_node',
+            'da_bag_replay', 'da_bag_eval'} <= executables, result.stdout
+    prefix = tools.run('ros2 pkg prefix data_association_ros').stdout.strip()
+    share = Path(prefix) / 'share' / 'data_association_ros'
+    assert sorted(p.name for p in (share / 'launch').iterdir()) == sorted(
+        p.name for p in (REPO / 'launch').glob('*.launch.py'))
+    assert (share / 'config' / 'association.yaml').read_text() == \
+        (REPO / 'config' / 'association.yaml').read_text()
+
+
+def test_ros2_run_then_param_set_get_describe_and_sigint(tools, tmp_path):
+    log = tmp_path / 'run.log'
+    process = tools.start('ros2 run data_association_ros association_node', log)
+    try:
+        wait_for(log, r'association_node ready', process)
+        accepted = tools.param('set /association_node algorithm gnn')
+        assert 'Set parameter successful' in accepted, accepted
+        assert 'String value is: gnn' in tools.param('get /association_node algorithm')
+        refused = tools.param('set /association_node algorithm magic')
+        assert 'Setting parameter failed' in refused, refused
+        assert "'magic' is not one of" in refused and 'jcbb' in refused, refused
+        refused = tools.param('set /association_node confirm_window 0')
+        assert 'Setting parameter failed' in refused and 'confirm_window' in refused, refused
+        refused = tools.param('set /association_node confirm_hits 5')
+        assert 'Setting parameter failed' in refused, refused
+        assert 'confirm_hits (5) must not exceed confirm_window (3)' in refused, refused
+        parameters = dump(tools, '/association_node')
+        assert (parameters['algorithm'], parameters['confirm_hits'],
+                parameters['confirm_window']) == ('gnn', 1, 3)
+        described = tools.param('describe /association_node gate_probability '
+                                'confirm_hits landmarks_type')
+        gate, hits, landmarks_type = described.split('Parameter name:')[1:]
+        assert 'Min value: 0.0' in gate and 'Max value: 1.0' in gate, described
+        assert 'Min value: 1' in hits and 'Max value: 1000' in hits, described
+        assert 'Read only: true' in landmarks_type or 'read-only' in landmarks_type, described
+        assert 'valid: pointcloud2, pose_array' in landmarks_type, described
+    except BaseException:
+        stop(process)
+        raise
+    interrupt(process, log)
+    assert "algorithm: 'mahalanobis_nn' -> 'gnn'" in log.read_text()
+
+
+def test_ros2_run_refuses_an_invalid_start_parameter_in_one_line(tools):
+    result = tools.run('ros2 run data_association_ros association_node --ros-args '
+                       '-p gate_probability:=2.0', timeout=60)
+    assert result.returncode != 0, result.stdout
+    lines = [line for line in result.stdout.splitlines() if 'association_node:' in line]
+    assert lines == ['association_node: invalid parameter gate_probability:=2.0: '
+                     '2.0 outside (0, 1); not started'], result.stdout
+    assert 'Traceback' not in result.stdout
+
+
+LAUNCHES = {
+    # launch file and arguments: {node: parameters it must come up with}
+    'association.launch.py': ('', {'/association_node': yaml.safe_load(
+        (REPO / 'config' / 'association.yaml').read_text())['association_node']
+        ['ros__parameters']}),
+    'slam.launch.py': ('algorithm:=gnn association_source:=ground_truth', {
+        '/association_node': {'algorithm': 'gnn'},
+        '/ekf_slam_node': {'association_source': 'ground_truth'}}),
+    'lidar_tracker.launch.py': ('fine:=nearest jnis:=polar publish_markers:=true', {
+        '/lidar_tracker_node': {'fine': 'nearest', 'jnis': 'polar', 'publish_markers': True}}),
+}
+
+
+def test_every_launch_file_is_covered():
+    assert sorted(LAUNCHES) == sorted(p.name for p in (REPO / 'launch').glob('*.launch.py'))
+
+
+@pytest.mark.parametrize('launch_file', sorted(LAUNCHES))
+def test_ros2_launch_configures_every_node_and_ends_cleanly_on_sigint(tools, tmp_path,
+                                                                       launch_file):
+    arguments, expected = LAUNCHES[launch_file]
+    log = tmp_path / 'launch.log'
+    process = tools.start(f'ros2 launch data_association_ros {launch_file} {arguments}', log)
+    try:
+        for node in expected:
+            wait_for(log, rf'\[{node[1:]}\]: {node[1:]} ready', process)
+        for node, parameters in expected.items():
+            actual = dump(tools, node)
+            assert {k: actual[k] for k in parameters} == parameters, node
+        if launch_file == 'association.launch.py':
+            echo_while_playing(tools, tmp_path)
+    except BaseException:
+        stop(process)
+        raise
+    assert process.poll() is None, f'the launch ended by itself:\n{log.read_text()}'
+    text = interrupt(process, log)
+    for node in expected:
+        assert re.search(rf'\[INFO\] \[{node[1:]}-\d+\]: process has finished cleanly', text), \
+            text
+
+
+def echo_while_playing(tools: Tools, tmp_path: Path) -> None:
+    """`ros2 topic echo --once /correspondences` while BAG's inputs are published to the
+    launched association_node: the message echoed answers one of the observations sent."""
+    from data_association_ros.bag import topics
+    from data_association_ros.bag.message_types import message_class
+    from data_association_ros.bag.reader import BagReader
+    from ros_harness import Graph
+
+    reader = BagReader(BAG)
+    present = [t for t in topics.INPUT_TOPICS if t in reader.topics]
+    inputs = list(reader.messages(present))
+    log = tmp_path / 'echo.log'
+    echo = tools.start('ros2 topic echo --once --no-arr /correspondences '
+                       'sensor_msgs/msg/PointCloud2', log)
+    graph = Graph()
+    try:
+        publishers = {t: graph.publisher(message_class(reader.topics[t]), t) for t in present}
+        graph.wait_for_subscribers(present, timeout=UP_S)
+        assert graph.spin_until(
+            lambda: graph.tester.count_subscribers(topics.CORRESPONDENCES) >= 1, UP_S), \
+            'ros2 topic echo never subscribed'
+        graph.spin_until(lambda: False, 1.0)   # both ends have seen each other
+        sent = {}   # observation stamp -> observations in the message
+        for message in inputs:
+            if echo.poll() is not None:
+                break
+            publishers[message.topic].publish(message.msg)
+            if message.topic == topics.OBSERVATIONS:
+                stamp = message.msg.header.stamp
+                sent[stamp.sec, stamp.nanosec] = message.msg.width * message.msg.height
+                graph.spin_until(lambda: echo.poll() is not None, 0.05)
+        echo.wait(timeout=UP_S)
+    finally:
+        if echo.poll() is None:
+            stop(echo)
+        graph.close()
+    text = log.read_text()
+    assert echo.returncode == 0, text
+    stamp = re.search(r'stamp:\s+sec: (\d+)\s+nanosec: (\d+)', text)
+    assert stamp and (int(stamp[1]), int(stamp[2])) in sent, text
+    # one point per observation; fields observation, landmark, nis, probability, x, y
+    assert f'width: {sent[int(stamp[1]), int(stamp[2])]}\n' in text, text
+    assert 'PointField, length: 6>' in text, text
