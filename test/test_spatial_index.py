@@ -225,8 +225,9 @@ def test_likelihood_gate_bounds_the_likelihood_test():
 
 
 def test_joint_covariance_only_the_local_block_is_factorised():
-    """A joint covariance that is not positive semi-definite far from the robot is not read;
-    one whose local block is not is refused."""
+    """A joint covariance that is not positive semi-definite far from the robot is not read
+    (with or without the index: the individual NIS reads the [pose, landmark] blocks, JCBB the
+    joint block of the candidates); one whose block in use is not is refused."""
     n = 200
     means = np.column_stack([np.arange(n) * 10.0, np.zeros(n)])
     landmarks = Landmarks(np.arange(n), means, np.tile(np.eye(2) * 0.01, (n, 1, 1)))
@@ -236,11 +237,10 @@ def test_joint_covariance_only_the_local_block_is_factorised():
     joint[far, far + 2] = joint[far + 2, far] = 1.0      # landmarks 150 and 151: not PSD
     observations = Observations([[10.0, 0.0]], np.eye(2)[None] * 0.01, 'point_robot')
     pose = RobotPose([0.0, 0.0, 0.0], joint[:3, :3])
-    result = associate(landmarks, observations, 'jcbb', pose=pose, state_covariance=joint)
-    assert list(result.assignment) == [1]
-    with pytest.raises(InvalidInputError, match='state_covariance'):
-        associate(landmarks, observations, 'jcbb', pose=pose, state_covariance=joint,
-                  spatial_index=False)
+    for indexed in (True, False):    # unindexed too: only the blocks used are factorised
+        result = associate(landmarks, observations, 'jcbb', pose=pose, state_covariance=joint,
+                           spatial_index=indexed)
+        assert list(result.assignment) == [1]
     near = joint.copy()
     near[far, far + 2] = near[far + 2, far] = 0.0
     near[5, 6] = near[6, 5] = 1.0                        # landmark 1 (read): not PSD

@@ -81,10 +81,17 @@ class AssociationProblem:
             self.state_covariance = check_covariance_matrix(matrix, 'state_covariance')
 
     def check_definite(self) -> None:
-        """Raise unless the joint covariance in use is positive semi-definite (the blocks of
-        the landmarks of this problem: a restricted problem holds only the local block)."""
-        if self.state_covariance is not None:
-            check_positive_semidefinite(self.state_covariance, 'state_covariance')
+        """Raise unless the joint covariance is positive semi-definite where the individual
+        NIS reads it: the block of [pose, landmark j] for every landmark of this problem (a
+        batched check of (N, 3 + d, 3 + d) blocks; the joint block of several landmarks is
+        checked where it is used, in joint_prediction_covariance)."""
+        if self.state_covariance is None or not len(self.landmarks):
+            return
+        n, d = len(self.landmarks), self.landmarks.dim
+        rows = np.concatenate([np.broadcast_to(np.arange(3), (n, 3)),
+                               3 + d * np.arange(n)[:, None] + np.arange(d)], axis=1)
+        blocks = self.state_covariance[rows[:, :, None], rows[:, None, :]]
+        check_positive_semidefinite(blocks, 'state_covariance')
 
     def restricted(self, columns: np.ndarray) -> 'AssociationProblem':
         """The same problem over the landmarks `columns` (sorted, (L,)) only, with the rows and
@@ -207,6 +214,8 @@ class AssociationProblem:
         covariance[3:, :3] = p_xm.T
         covariance[3:, 3:] = self._landmark_block(idx, idx).transpose(0, 2, 1, 3).reshape(
             count * d, count * d)
+        if self.state_covariance is not None:
+            check_positive_semidefinite(covariance, 'state_covariance')
         flat = jacobian.reshape(count * m, 3 + count * d)
         joint = flat @ covariance @ flat.T
         return joint.reshape(count, m, count, m).transpose(0, 2, 1, 3)

@@ -45,7 +45,11 @@ def check_spd(matrices: np.ndarray, field: str) -> None:
     bad = np.flatnonzero(asym > 1e-9 * scale)
     if bad.size:
         raise InvalidInputError(f'{field}[{bad[0]}]: not symmetric')
-    smallest = np.linalg.eigvalsh(matrices)[..., 0]
+    if matrices.shape[-1] == 2:     # closed form: many small matrices, no LAPACK call each
+        a, b, c = matrices[:, 0, 0], matrices[:, 0, 1], matrices[:, 1, 1]
+        smallest = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b)
+    else:
+        smallest = np.linalg.eigvalsh(matrices)[..., 0]
     bad = np.flatnonzero(smallest <= 1e-12 * scale)
     if bad.size:
         raise InvalidInputError(
@@ -86,15 +90,15 @@ def check_covariance_matrix(value, field: str) -> np.ndarray:
 
 
 def check_positive_semidefinite(matrix: np.ndarray, field: str) -> None:
-    """Raise unless the symmetric `matrix` is positive semi-definite: eigenvalues down to
-    -1e-9 x (1 + max |entry|) are accepted, tested by Cholesky of the matrix plus twice that.
-    Free for a checked matrix that passed before."""
+    """Raise unless the symmetric `matrix` (n, n), or every matrix of a stack (k, n, n), is
+    positive semi-definite: eigenvalues down to -1e-9 x (1 + max |entry|) are accepted, tested
+    by Cholesky of the matrix plus twice that.  Free for a checked matrix that passed before."""
     if _DEFINITE.get(id(matrix)) is matrix and is_checked_covariance(matrix):
         return
-    if len(matrix):
-        scale = 1.0 + np.abs(matrix).max(initial=0.0)
+    if matrix.size:
+        scale = 1.0 + np.abs(matrix).max(axis=(-2, -1), keepdims=True)
         try:
-            np.linalg.cholesky(matrix + 2e-9 * scale * np.eye(len(matrix)))
+            np.linalg.cholesky(matrix + 2e-9 * scale * np.eye(matrix.shape[-1]))
         except np.linalg.LinAlgError:
             raise InvalidInputError(f'{field}: not positive semi-definite') from None
     if is_checked_covariance(matrix):
