@@ -137,13 +137,14 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
     NodeParameter('pose_tolerance', 0.05,
                   'the robot pose nearest the observation stamp is used within this [s]',
                   spec=ParameterSpec('pose_tolerance', 0.05, '', low=0.0)),
-    NodeParameter('pose_wait', 2.0,
+    NodeParameter('pose_wait', 4.0,
                   'an observation message whose inputs may still be on its way waits up to this '
                   'long [s, wall clock] for them: no map received yet (a large prior map can '
                   'arrive after the first scans), state covariances arrive but not yet its '
                   'map\'s, or its robot pose (poses arrive, but none within pose_tolerance of '
-                  'its stamp and none newer yet); DDS does not order topics',
-                  spec=ParameterSpec('pose_wait', 2.0, '', low=0.0, high=60.0)),
+                  'its stamp and none newer yet); DDS does not order topics, and a message lost on '
+                  'the wire is resent after the writer\'s next heartbeat (Fast DDS: 3 s)',
+                  spec=ParameterSpec('pose_wait', 4.0, '', low=0.0, high=60.0)),
     NodeParameter('publish_markers', False, 'publish association_markers (costs time)',
                   spec=ParameterSpec('publish_markers', False, '', kind=bool)),
     NodeParameter('landmarks_type', 'pointcloud2',
