@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from data_association_ros.bag.offline import node_config
 from data_association_ros.pipelines.association import AssociationPipeline
-from message_fuzz import (SCALE, float_arrays, odometries, plausible_clouds, pose_arrays,
+from message_fuzz import (SCALE, covariance_clouds, odometries, plausible_clouds, pose_arrays,
                           raw_clouds)
 from msg_adapters import cloud_to_array
 from ros_harness import cloud, header, odometry
@@ -115,7 +115,7 @@ def test_odometry(stream, msg):
 
 
 @fuzz(1500)
-@given(msg=float_arrays())
+@given(msg=covariance_clouds())
 def test_state_covariances(stream, msg):
     stream.feed(stream.pipeline.on_state_covariance, msg)
 
