@@ -1,7 +1,8 @@
 """association_node: landmarks + observations in, correspondences and new landmarks out.
 
 Subscribes `landmarks` (PointCloud2, or PoseArray), `observations` (PointCloud2), `robot_pose`
-(Odometry), `state_covariance` (PointCloud2 of the joint covariance's rows, optional) and `odometry` (multi_hypothesis);
+(Odometry), `state_covariance` (PointCloud2 of the joint covariance's rows, optional) and
+`odometry` (multi_hypothesis);
 publishes per observation message `correspondences` (PointCloud2: observation, landmark id or
 -1 NEW / -2 UNASSOCIATED, nis, ...), `new_landmarks`, `landmark_candidates`,
 `estimated_transform`, `pose_hypotheses`, `past_associations`, `association_markers`, and
