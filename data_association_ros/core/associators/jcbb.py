@@ -20,7 +20,8 @@ from ..gating import chi2_threshold
 from ..parameters import (GATE_PROBABILITY, JOINT_GATE_PROBABILITY, MIN_INNOVATION_VARIANCE,
                           ParameterSpec)
 from .base import NO_LANDMARK, Associator, result
-from .joint_compatibility import MAX_NODES, TIME_BUDGET_MS, JointCompatibilitySearch
+from .joint_compatibility import (MAX_NODES, TIME_BUDGET_MS, JointCompatibilitySearch,
+                                  joint_compatibility_search)
 
 CLASSIC_PRUNING = ParameterSpec(
     'classic_pruning', False, 'also prune every node failing its own joint test (faster, may '
@@ -66,9 +67,9 @@ def run(problem, gate_probability: float, joint_gate_probability: float,
     started = time.perf_counter()
     gated, candidates, order = individually_compatible(problem, gate_probability)
     joint = joint_gate_probability if joint_gate_probability > 0.0 else gate_probability
-    search = JointCompatibilitySearch(problem, joint, candidates, order,
-                                      deadline_of(started, time_budget_ms), max_nodes,
-                                      classic_pruning, nis_tie_break)
+    search = joint_compatibility_search(problem, joint, candidates, order,
+                                        deadline_of(started, time_budget_ms), max_nodes,
+                                        classic_pruning, nis_tie_break)
     search.run()
     return search_result(problem, 'jcbb', search, gated, started)
 
