@@ -22,6 +22,7 @@ from msg_adapters import diagnostics_message
 from ..core import InvalidInputError
 from ..pipelines.association import AssociationPipeline
 from ..pipelines.parameters import NODE_PARAMETERS, check_combination
+from ..pipelines.warm_up import warm_up
 from .parameterized_node import ParameterizedNode, spin
 
 MAX_WAITING = 10
@@ -67,6 +68,7 @@ class AssociationNode(ParameterizedNode):
         self.create_timer(config['diagnostics_period'], self.publish_diagnostics)
         self._waiting: deque = deque()   # (observation message, wall time it arrived)
         self.create_timer(0.05, self._answer_waiting)
+        self.start_up_seconds = warm_up(config)   # JIT, thresholds, first calls: before ready
         self.get_logger().info(f'association_node ready: algorithm {config["algorithm"]}, '
                                f'measurement_model {config["measurement_model"]}')
 
