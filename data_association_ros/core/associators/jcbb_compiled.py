@@ -124,12 +124,13 @@ def _chol_inverse(matrix, out):
 
 
 @_njit
-def _extend(i, j, a, nis, npairs, nu, s, joint, lblk, dinv, w, xc, xstamp, xvalid, lversion,
+def _extend(e, a, nis, npairs, nu, s, joint, lblk, dinv, w, xc, xstamp, xvalid, lversion,
             ploc, schur, residual, block, w_new):
-    """d2 after adding pair (i, j) (local landmark a) to the npairs current pairs, leaving the
-    new diagonal inverse factor in `block` and the new whitened block in `w_new`; -1 when the
-    joint covariance is not positive definite."""
-    m = nu.shape[2]
+    """d2 after adding candidate pair e (innovation nu[e] (m,), S = s[e] (m, m), local
+    landmark a) to the npairs current pairs, leaving the new diagonal inverse factor in `block`
+    and the new whitened block in `w_new`; -1 when the joint covariance is not positive
+    definite."""
+    m = nu.shape[1]
     # the valid prefix of X_a: rows whose pairs have not changed since they were computed
     t0 = 0
     top = min(xvalid[a], npairs)
@@ -153,13 +154,13 @@ def _extend(i, j, a, nis, npairs, nu, s, joint, lblk, dinv, w, xc, xstamp, xvali
     if xvalid[a] < npairs:
         xvalid[a] = npairs
     for r in range(m):
-        total = nu[i, j, r]
+        total = nu[e, r]
         for t in range(npairs):
             for u in range(m):
                 total -= xc[a, t, u, r] * w[t, u]
         residual[r] = total
         for c in range(m):
-            total = s[i, j, r, c]
+            total = s[e, r, c]
             for t in range(npairs):
                 for u in range(m):
                     total -= xc[a, t, u, r] * xc[a, t, u, c]
@@ -223,17 +224,64 @@ def _enters(position, nis, npairs, k, free, thresholds, istate, best_nis, nis_ti
 
 
 @_njit
+def _extend_low_rank(e, npairs, e_a, e_g, e_m, cum_a, cum_g, cum_m, g_new, m_new):
+    """d2 after adding candidate entry e to the npairs current pairs when
+    C_H = blockdiag(B_t) + G_H U U^T G_H^T (no state covariance: the pose is the only
+    correlation; Woodbury): d2 = a - h^T (I + M)^-1 h with a = sum nu_t^T B_t^-1 nu_t,
+    h = sum (G_t U)^T B_t^-1 nu_t, M = sum (G_t U)^T B_t^-1 G_t U; leaves h, M in g_new, m_new."""
+    r = e_g.shape[1]
+    for u in range(r):
+        g_new[u] = cum_g[npairs, u] + e_g[e, u]
+        for v in range(r):
+            m_new[u, v] = cum_m[npairs, u, v] + e_m[e, u, v]
+    factor = np.zeros((r, r))   # Cholesky factor of I + M (SPD)
+    for u in range(r):
+        for v in range(u + 1):
+            total = m_new[u, v] + (1.0 if u == v else 0.0)
+            for q in range(v):
+                total -= factor[u, q] * factor[v, q]
+            if u == v:
+                if not total > 0.0:
+                    return -1.0
+                factor[u, u] = np.sqrt(total)
+            else:
+                factor[u, v] = total / factor[v, v]
+    reduction = 0.0
+    y = np.zeros(r)
+    for u in range(r):
+        total = g_new[u]
+        for q in range(u):
+            total -= factor[u, q] * y[q]
+        y[u] = total / factor[u, u]
+        reduction += y[u] * y[u]
+    return max(cum_a[npairs] + e_a[e] - reduction, 0.0)
+
+
+@_njit
+def _push_low_rank(e, npairs, e_a, cum_a, cum_g, cum_m, g_new, m_new):
+    """Make entry e the pair at depth npairs (low-rank sums)."""
+    cum_a[npairs + 1] = cum_a[npairs] + e_a[e]
+    cum_g[npairs + 1] = g_new
+    cum_m[npairs + 1] = m_new
+
+
+@_njit
 def search(nu, s, joint, order, cptr, ccols, cloc, lptr, lpos, thresholds, classic, nis_ties,
            max_nodes, pause, lblk, dinv, w, xc, xstamp, xvalid, lversion, pobs, pcol, ploc, used,
-           free, bobs, bcol, f_nis, f_c, f_stage, f_l, istate, fstate):
+           free, bobs, bcol, f_nis, f_c, f_stage, f_l, istate, fstate, low_rank, e_a, e_g, e_m,
+           cum_a, cum_g, cum_m):
     """Run (or resume) the search; istate[STATUS] DONE when finished or truncated by
-    max_nodes, PAUSED at node istate[NODES] (counted, not yet extended) when `pause`."""
-    m = nu.shape[2]
+    max_nodes, PAUSED at node istate[NODES] (counted, not yet extended) when `pause`.
+    low_rank: joint NIS from the per-entry sums e_a, e_g, e_m (_extend_low_rank), else from
+    the Cholesky factor (_extend)."""
+    m = nu.shape[1]
     k = order.shape[0]
     schur = np.empty((m, m))
     residual = np.empty(m)
     block = np.empty((m, m))
     w_new = np.empty(m)
+    g_new = np.empty(e_g.shape[1])
+    m_new = np.empty((e_g.shape[1], e_g.shape[1]))
     start = istate[START]
     pos = istate[POS]
     if istate[STATUS] == RUNNING:  # a fresh start: enter the root frame
@@ -282,8 +330,12 @@ def search(nu, s, joint, order, cptr, ccols, cloc, lptr, lpos, thresholds, class
             istate[PENDING] = 0
             f_c[pos] = e + 1
             j = ccols[e]
-            new_nis = _extend(i, j, a, f_nis[pos], l, nu, s, joint, lblk, dinv, w, xc, xstamp,
-                              xvalid, lversion, ploc, schur, residual, block, w_new)
+            if low_rank:
+                new_nis = _extend_low_rank(e, l, e_a, e_g, e_m, cum_a, cum_g, cum_m, g_new,
+                                           m_new)
+            else:
+                new_nis = _extend(e, a, f_nis[pos], l, nu, s, joint, lblk, dinv, w, xc,
+                                  xstamp, xvalid, lversion, ploc, schur, residual, block, w_new)
             if new_nis < 0.0:
                 continue
             passes = new_nis <= thresholds[l + 1]
@@ -295,8 +347,15 @@ def search(nu, s, joint, order, cptr, ccols, cloc, lptr, lpos, thresholds, class
                 istate[BEST_COUNT] = l + 1
                 fstate[0] = new_nis
             if passes or not classic:
-                _push(i, j, a, l, lblk, dinv, w, xc, lversion, pobs, pcol, ploc, used, free,
-                      lptr, lpos, block, w_new, istate)
+                if low_rank:
+                    _push_low_rank(e, l, e_a, cum_a, cum_g, cum_m, g_new, m_new)
+                    pobs[l], pcol[l], ploc[l] = i, j, a
+                    used[a] = True
+                    for q in range(lptr[a], lptr[a + 1]):
+                        free[lpos[q]] -= 1
+                else:
+                    _push(i, j, a, l, lblk, dinv, w, xc, lversion, pobs, pcol, ploc, used,
+                          free, lptr, lpos, block, w_new, istate)
                 istate[NPAIRS] = l + 1
                 f_stage[pos] = 1
                 if _enters(pos + 1, new_nis, l + 1, k, free, thresholds, istate, fstate[0],
@@ -328,6 +387,100 @@ def search(nu, s, joint, order, cptr, ccols, cloc, lptr, lpos, thresholds, class
     istate[STATUS] = DONE
 
 
+@_njit
+def _joint_blocks(h_x, h_m, state_covariance, local, out):
+    """out[a, b] = Cov(h_local[a], h_local[b]) = A_a P[i_a, i_b] A_b^T (L, L, m, m) with
+    A = [dh/dpose, dh/dlandmark] (m, 3 + d) and i_a = the pose's and landmark a's rows of the
+    state covariance P ((3 + N d) square)."""
+    count, m, d = local.shape[0], h_x.shape[1], h_m.shape[2]
+    width = 3 + d
+    jac = np.zeros((count, m, width))
+    rows = np.zeros((count, width), dtype=np.int64)
+    for a in range(count):
+        for r in range(m):
+            for c in range(3):
+                jac[a, r, c] = h_x[local[a], r, c]
+            for c in range(d):
+                jac[a, r, 3 + c] = h_m[local[a], r, c]
+        for c in range(3):
+            rows[a, c] = c
+        for c in range(d):
+            rows[a, 3 + c] = 3 + local[a] * d + c
+    left = np.zeros((m, width))
+    for a in range(count):
+        for b in range(count):
+            for r in range(m):   # left = A_a P[i_a, i_b]
+                for c in range(width):
+                    total = 0.0
+                    for q in range(width):
+                        total += jac[a, r, q] * state_covariance[rows[a, q], rows[b, c]]
+                    left[r, c] = total
+            for r in range(m):
+                for c in range(m):
+                    total = 0.0
+                    for q in range(width):
+                        total += left[r, q] * jac[b, c, q]
+                    out[a, b, r, c] = total
+
+
+def joint_covariance(problem, local: np.ndarray) -> np.ndarray:
+    """Cov(h_a, h_b) for a, b in `local` (L, L, m, m): the compiled _joint_blocks with a state
+    covariance, else the problem's joint_prediction_covariance."""
+    if problem.state_covariance is None or len(local) == 0:
+        return np.ascontiguousarray(problem.joint_prediction_covariance(local))
+    _, h_m, h_x = problem._prediction
+    m = problem.observations.dim
+    out = np.empty((len(local), len(local), m, m))
+    _joint_blocks(np.ascontiguousarray(h_x), np.ascontiguousarray(h_m),
+                  np.ascontiguousarray(problem.state_covariance),
+                  np.asarray(local, dtype=np.int64), out)
+    return out
+
+
+def pair_terms(problem, rows: np.ndarray, columns: np.ndarray):
+    """(nu (E, m), S (E, m, m)) of the pairs (rows[e], columns[e]): the problem's innovations
+    and innovation covariances H P H^T + R floored at min_innovation_variance, for these pairs
+    only."""
+    s = problem.prediction_covariances[columns] + problem.observations.covariances[rows]
+    if problem.min_innovation_variance > 0:
+        diagonal = np.einsum('...ii->...i', s)
+        diagonal[...] = np.maximum(diagonal, problem.min_innovation_variance)
+    return np.ascontiguousarray(problem.innovations[rows, columns]), s
+
+
+def low_rank_terms(problem, rows: np.ndarray, columns: np.ndarray):
+    """Per candidate pair (rows[e], columns[e]) the terms of _extend_low_rank: (nu^T B^-1 nu
+    (E,), (G U)^T B^-1 nu (E, 3), (G U)^T B^-1 G U (E, 3, 3)) with B = H_m P_j H_m^T + R_i,
+    G = H_x and U U^T = the pose covariance; None when that form does not hold exactly (a
+    state covariance, a floor on S that may bind, a B not positive definite)."""
+    if problem.state_covariance is not None or problem.landmarks.covariances is None or \
+            problem.observations.covariances is None:
+        return None
+    _, h_m, h_x = problem._prediction
+    pose = np.zeros((3, 3)) if problem.pose is None else problem.pose.covariance
+    values, vectors = np.linalg.eigh(pose)
+    root = vectors * np.sqrt(np.maximum(values, 0.0))
+    g = h_x[columns] @ root
+    hm = h_m[columns]
+    b = hm @ problem.landmarks.covariances[columns] @ np.swapaxes(hm, 1, 2) + \
+        problem.observations.covariances[rows]
+    floor = problem.min_innovation_variance
+    if floor > 0 and len(rows):
+        diagonal = np.einsum('eii->ei', b) + np.einsum('eij,eij->ei', g, g)
+        if not (diagonal > 2.0 * floor).all():
+            return None
+    try:
+        np.linalg.cholesky(b)
+        b_inverse = np.linalg.inv(b)
+    except np.linalg.LinAlgError:
+        return None
+    nu = problem.innovations[rows, columns]
+    b_nu = np.einsum('eij,ej->ei', b_inverse, nu)
+    b_g = b_inverse @ g
+    return (np.einsum('ei,ei->e', nu, b_nu), np.einsum('eir,ei->er', g, b_nu),
+            np.ascontiguousarray(np.swapaxes(g, 1, 2) @ b_g))
+
+
 class CompiledSearch:
     """JointCompatibilitySearch's interface (start_from, run, best_pairs, best_nis, nodes,
     truncated) on the compiled kernel; same arguments as JointCompatibilitySearch."""
@@ -336,14 +489,13 @@ class CompiledSearch:
                  order: list[int], deadline: Optional[float], max_nodes: int,
                  classic: bool = False, nis_ties: bool = True) -> None:
         m = problem.observations.dim
+        self.problem = problem
         nonempty = [c for c in candidates if len(c)]
-        local = np.unique(np.concatenate(nonempty)) if nonempty else np.zeros(0, dtype=np.intp)
-        count = len(local)
-        self.joint = np.ascontiguousarray(problem.joint_prediction_covariance(local))
-        self.nu = np.ascontiguousarray(problem.innovations)
-        self.s = np.ascontiguousarray(problem.innovation_covariances)
+        self.local = np.unique(np.concatenate(nonempty)) if nonempty else \
+            np.zeros(0, dtype=np.intp)
+        count = len(self.local)
         self.position_of = np.full(problem.sizes[1], -1, dtype=np.int64)
-        self.position_of[local] = np.arange(count)
+        self.position_of[self.local] = np.arange(count)
         k, most = len(order), len(candidates)
         self.order = np.asarray(order, dtype=np.int64)
         sizes = np.array([len(candidates[i]) for i in order], dtype=np.int64)
@@ -361,14 +513,7 @@ class CompiledSearch:
                                     for l in range(most + 1)])
         self.classic, self.nis_ties = bool(classic), bool(nis_ties)
         self.max_nodes, self.deadline = int(max_nodes), deadline
-        depth = max(most, 1)
-        self.lblk = np.zeros((depth, depth, m, m))
-        self.dinv = np.zeros((depth, m, m))
-        self.w = np.zeros((depth, m))
-        self.xc = np.zeros((count, depth, m, m))
-        self.xstamp = np.zeros((count, depth), dtype=np.int64)
-        self.xvalid = np.zeros(count, dtype=np.int64)
-        self.lversion = np.zeros(depth, dtype=np.int64)
+        self.depth = depth = max(most, 1)
         self.pobs, self.pcol, self.ploc, self.bobs, self.bcol = (
             np.zeros(depth, dtype=np.int64) for _ in range(5))
         self.used = np.zeros(count, dtype=np.bool_)
@@ -377,6 +522,36 @@ class CompiledSearch:
         self.f_c, self.f_stage, self.f_l = (np.zeros(k + 1, dtype=np.int64) for _ in range(3))
         self.istate = np.zeros(ISTATE_SIZE, dtype=np.int64)
         self.fstate = np.zeros(2)   # best NIS, NIS at the root
+        self.rows = self.order[np.repeat(np.arange(k), sizes)]    # observation of each entry
+        sums = low_rank_terms(problem, self.rows, self.ccols)
+        self.low_rank = sums is not None
+        if self.low_rank:
+            self.e_a, self.e_g, self.e_m = sums
+            rank = self.e_g.shape[1]
+            self.cum_a = np.zeros(depth + 1)
+            self.cum_g = np.zeros((depth + 1, rank))
+            self.cum_m = np.zeros((depth + 1, rank, rank))
+            self._general(empty=True)
+        else:
+            self.e_a, self.e_g, self.e_m = np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1, 1))
+            self.cum_a, self.cum_g, self.cum_m = np.zeros(1), np.zeros((1, 1)), \
+                np.zeros((1, 1, 1))
+            self._general()
+
+    def _general(self, empty: bool = False) -> None:
+        """The arrays of the Cholesky-factor search (zero-sized when `empty`)."""
+        problem, m = self.problem, self.problem.observations.dim
+        count, depth = (0, 0) if empty else (len(self.local), self.depth)
+        self.joint = np.zeros((0, 0, m, m)) if empty else joint_covariance(problem, self.local)
+        self.nu, self.s = (np.zeros((0, m)), np.zeros((0, m, m))) if empty else \
+            pair_terms(problem, self.rows, self.ccols)
+        self.lblk = np.zeros((depth, depth, m, m))
+        self.dinv = np.zeros((depth, m, m))
+        self.w = np.zeros((depth, m))
+        self.xc = np.zeros((count, depth, m, m))
+        self.xstamp = np.zeros((count, depth), dtype=np.int64)
+        self.xvalid = np.zeros(count, dtype=np.int64)
+        self.lversion = np.zeros(depth, dtype=np.int64)
 
     @property
     def best_pairs(self) -> list[tuple[int, int]]:
@@ -402,13 +577,20 @@ class CompiledSearch:
     def start_from(self, pairs: list[tuple[int, int]]) -> float:
         """Fix `pairs` (observation, landmark column) as the root of the search; returns their
         joint NIS and records them as the best so far when they pass the joint test."""
-        m = self.nu.shape[2]
+        if pairs and self.low_rank:
+            self.low_rank = False
+            self._general()
+        if pairs:
+            nu, s = pair_terms(self.problem, np.array([i for i, _ in pairs]),
+                               np.array([j for _, j in pairs]))
+            self.nu, self.s = np.concatenate([self.nu, nu]), np.concatenate([self.s, s])
+        m = self.problem.observations.dim
         schur, residual, block, w_new = np.empty((m, m)), np.empty(m), np.empty((m, m)), \
             np.empty(m)
         nis = 0.0
         for i, j in pairs:
             a, l = int(self.position_of[j]), int(self.istate[NPAIRS])
-            nis = _extend(int(i), int(j), a, nis, l, self.nu, self.s, self.joint, self.lblk,
+            nis = _extend(len(self.ccols) + l, a, nis, l, self.nu, self.s, self.joint, self.lblk,
                           self.dinv, self.w, self.xc, self.xstamp, self.xvalid, self.lversion,
                           self.ploc, schur, residual, block, w_new)
             if nis < 0.0:
@@ -438,7 +620,8 @@ class CompiledSearch:
                    self.max_nodes, pause, self.lblk, self.dinv, self.w, self.xc, self.xstamp,
                    self.xvalid, self.lversion, self.pobs, self.pcol, self.ploc, self.used,
                    self.free, self.bobs, self.bcol, self.f_nis, self.f_c, self.f_stage, self.f_l,
-                   state, self.fstate)
+                   state, self.fstate, self.low_rank, self.e_a, self.e_g, self.e_m, self.cum_a,
+                   self.cum_g, self.cum_m)
             if state[STATUS] != PAUSED:
                 return
             if time.perf_counter() >= self.deadline:
