@@ -24,6 +24,7 @@ from __future__ import annotations
 import os
 import tempfile
 import time
+from functools import lru_cache
 from pathlib import Path
 from typing import Optional
 
@@ -406,20 +407,22 @@ def _joint_blocks(h_x, h_m, state_covariance, local, out):
             rows[a, c] = c
         for c in range(d):
             rows[a, 3 + c] = 3 + local[a] * d + c
-    left = np.zeros((m, width))
+    size = state_covariance.shape[0]
+    left = np.zeros((m, size))
     for a in range(count):
+        left[:] = 0.0   # left = A_a P[i_a, :]
+        for r in range(m):
+            for q in range(width):
+                coefficient = jac[a, r, q]
+                row = rows[a, q]
+                for c in range(size):
+                    left[r, c] += coefficient * state_covariance[row, c]
         for b in range(count):
-            for r in range(m):   # left = A_a P[i_a, i_b]
-                for c in range(width):
-                    total = 0.0
-                    for q in range(width):
-                        total += jac[a, r, q] * state_covariance[rows[a, q], rows[b, c]]
-                    left[r, c] = total
             for r in range(m):
                 for c in range(m):
                     total = 0.0
                     for q in range(width):
-                        total += left[r, q] * jac[b, c, q]
+                        total += left[r, rows[b, q]] * jac[b, c, q]
                     out[a, b, r, c] = total
 
 
@@ -481,6 +484,16 @@ def low_rank_terms(problem, rows: np.ndarray, columns: np.ndarray):
             np.ascontiguousarray(np.swapaxes(g, 1, 2) @ b_g))
 
 
+_NO_LOW_RANK = (np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1, 1)))
+"""Zero-sized stand-ins for the low-rank arrays of a Cholesky-factor search (never written)."""
+
+
+@lru_cache(maxsize=256)
+def _thresholds(probability: float, m: int, most: int) -> np.ndarray:
+    """chi2(m l, probability) for l = 0..most (0 for l = 0); shared: never written."""
+    return np.array([chi2_threshold(probability, m * l) if l else 0.0 for l in range(most + 1)])
+
+
 class CompiledSearch:
     """JointCompatibilitySearch's interface (start_from, run, best_pairs, best_nis, nodes,
     truncated) on the compiled kernel; same arguments as JointCompatibilitySearch."""
@@ -490,39 +503,38 @@ class CompiledSearch:
                  classic: bool = False, nis_ties: bool = True) -> None:
         m = problem.observations.dim
         self.problem = problem
-        nonempty = [c for c in candidates if len(c)]
-        self.local = np.unique(np.concatenate(nonempty)) if nonempty else \
-            np.zeros(0, dtype=np.intp)
-        count = len(self.local)
-        self.position_of = np.full(problem.sizes[1], -1, dtype=np.int64)
-        self.position_of[self.local] = np.arange(count)
         k, most = len(order), len(candidates)
         self.order = np.asarray(order, dtype=np.int64)
-        sizes = np.array([len(candidates[i]) for i in order], dtype=np.int64)
+        sizes = np.fromiter((len(candidates[i]) for i in order), dtype=np.int64, count=k)
         self.cptr = np.zeros(k + 1, dtype=np.int64)
         np.cumsum(sizes, out=self.cptr[1:])
         self.ccols = np.concatenate([candidates[i] for i in order]).astype(np.int64) if k \
             else np.zeros(0, dtype=np.int64)
+        marked = np.zeros(problem.sizes[1], dtype=np.int64)
+        if most:   # every candidate landmark (start_from's pairs too)
+            marked[np.concatenate(candidates).astype(np.intp)] = 1
+        self.local = np.flatnonzero(marked)
+        count = len(self.local)
+        self.position_of = np.cumsum(marked) - 1    # local index of each marked landmark
         self.cloc = self.position_of[self.ccols]
         # positions searching each local landmark (CSR by landmark)
-        by_landmark = np.argsort(self.cloc, kind='stable')
-        self.lpos = np.repeat(np.arange(k, dtype=np.int64), sizes)[by_landmark]
+        positions = np.repeat(np.arange(k, dtype=np.int64), sizes)
+        self.lpos = positions[np.argsort(self.cloc, kind='stable')]
         self.lptr = np.zeros(count + 1, dtype=np.int64)
         np.cumsum(np.bincount(self.cloc, minlength=count), out=self.lptr[1:])
-        self.thresholds = np.array([chi2_threshold(gate_probability, m * l) if l else 0.0
-                                    for l in range(most + 1)])
+        self.thresholds = _thresholds(gate_probability, m, most)
         self.classic, self.nis_ties = bool(classic), bool(nis_ties)
         self.max_nodes, self.deadline = int(max_nodes), deadline
         self.depth = depth = max(most, 1)
-        self.pobs, self.pcol, self.ploc, self.bobs, self.bcol = (
-            np.zeros(depth, dtype=np.int64) for _ in range(5))
+        self.pobs, self.pcol, self.ploc, self.bobs, self.bcol = np.zeros((5, depth),
+                                                                         dtype=np.int64)
         self.used = np.zeros(count, dtype=np.bool_)
-        self.free = sizes.copy()
+        self.free = sizes
         self.f_nis = np.zeros(k + 1)
-        self.f_c, self.f_stage, self.f_l = (np.zeros(k + 1, dtype=np.int64) for _ in range(3))
+        self.f_c, self.f_stage, self.f_l = np.zeros((3, k + 1), dtype=np.int64)
         self.istate = np.zeros(ISTATE_SIZE, dtype=np.int64)
         self.fstate = np.zeros(2)   # best NIS, NIS at the root
-        self.rows = self.order[np.repeat(np.arange(k), sizes)]    # observation of each entry
+        self.rows = self.order[positions]    # the observation of each candidate entry
         sums = low_rank_terms(problem, self.rows, self.ccols)
         self.low_rank = sums is not None
         if self.low_rank:
@@ -533,25 +545,25 @@ class CompiledSearch:
             self.cum_m = np.zeros((depth + 1, rank, rank))
             self._general(empty=True)
         else:
-            self.e_a, self.e_g, self.e_m = np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1, 1))
-            self.cum_a, self.cum_g, self.cum_m = np.zeros(1), np.zeros((1, 1)), \
-                np.zeros((1, 1, 1))
+            self.e_a, self.e_g, self.e_m = _NO_LOW_RANK
+            self.cum_a, self.cum_g, self.cum_m = _NO_LOW_RANK
             self._general()
 
     def _general(self, empty: bool = False) -> None:
-        """The arrays of the Cholesky-factor search (zero-sized when `empty`)."""
+        """The arrays of the Cholesky-factor search (zero-sized when `empty`); all but xvalid
+        are written before they are read."""
         problem, m = self.problem, self.problem.observations.dim
         count, depth = (0, 0) if empty else (len(self.local), self.depth)
         self.joint = np.zeros((0, 0, m, m)) if empty else joint_covariance(problem, self.local)
         self.nu, self.s = (np.zeros((0, m)), np.zeros((0, m, m))) if empty else \
             pair_terms(problem, self.rows, self.ccols)
-        self.lblk = np.zeros((depth, depth, m, m))
-        self.dinv = np.zeros((depth, m, m))
-        self.w = np.zeros((depth, m))
-        self.xc = np.zeros((count, depth, m, m))
-        self.xstamp = np.zeros((count, depth), dtype=np.int64)
+        self.lblk = np.empty((depth, depth, m, m))
+        self.dinv = np.empty((depth, m, m))
+        self.w = np.empty((depth, m))
+        self.xc = np.empty((count, depth, m, m))
+        self.xstamp, self.lversion = np.empty((count, depth), dtype=np.int64), \
+            np.empty(depth, dtype=np.int64)
         self.xvalid = np.zeros(count, dtype=np.int64)
-        self.lversion = np.zeros(depth, dtype=np.int64)
 
     @property
     def best_pairs(self) -> list[tuple[int, int]]:
