@@ -3,8 +3,9 @@
 Starts association_node (per algorithm) and a bare rclpy echo node as separate processes on
 loopback DDS, sends the same K-observation scans to each, one at a time, and prints median and
 p99 of the round trip (after --warmup messages) and their ratios to the echo's (same message
-sizes, no work: the baseline measured in the same run), and the first scan's round trip (the
-first message after the server's topics matched) against the median.
+sizes, no work: the baseline measured in the same run), and the first answered scan's round
+trip (after the server's topics matched; a scan whose map or pose has not arrived yet is
+skipped by the node) against the median.
 
     python benchmarks/node_latency.py [--observations 50] [--landmarks 200] [--messages 200]
                                       [--algorithms mahalanobis_nn,gnn,jcbb]
@@ -111,6 +112,9 @@ def measure(namespace: str, command: list[str], args, landmark_points, observati
                     landmarks_pub.get_subscription_count()
                     and pose_pub.get_subscription_count()))):
             executor.spin_once(timeout_sec=0.05)
+        settle = time.monotonic() + 0.5   # matching is per side: let both sides finish it
+        while time.monotonic() < settle:
+            executor.spin_once(timeout_sec=0.05)
         latencies = []
         for k in range(args.messages + args.warmup):
             stamp = Header()
@@ -173,7 +177,8 @@ def main() -> None:
         latencies = latencies[np.isfinite(latencies)]
         median = float(np.median(latencies)) if len(latencies) else float('nan')
         p99 = float(np.percentile(latencies, 99)) if len(latencies) else float('nan')
-        first = float(everything[0])
+        answered = everything[np.isfinite(everything)]
+        first = float(answered[0]) if len(answered) else float('nan')
         baseline = (median, p99) if baseline is None else baseline
         print(f'{name:<18}{len(latencies):>9}{median:>11.2f}{p99:>9.2f}'
               f'{median / baseline[0]:>8.2f}{p99 / baseline[1]:>11.2f}{first:>10.2f}'

@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from data_association_ros import Landmarks, Observations, associate
-from data_association_ros.core.associators import jcbb_compiled
+from data_association_ros.core.associators import jcbb_compiled, jcbb_kernels
 from data_association_ros.core.associators.joint_compatibility import compiled
 from problem_factory import random_range_bearing_problem
 
@@ -130,7 +130,7 @@ sys.path.insert(0, 'test')
 import numpy as np
 {block}
 from data_association_ros import associate
-from data_association_ros.core.associators import jcbb_compiled
+from data_association_ros.core.associators import jcbb_compiled, jcbb_kernels
 from problem_factory import random_range_bearing_problem
 lm, obs, pose, p, _ = random_range_bearing_problem(np.random.default_rng(11), 8, 6, 2, 2, True)
 r = associate(lm, obs, 'jcbb', pose=pose, state_covariance=p)
@@ -156,15 +156,15 @@ def test_package_works_without_numba_with_the_same_answer():
 def test_cache_dir_falls_back_to_a_user_directory(monkeypatch, tmp_path):
     """A read-only package directory: NUMBA_CACHE_DIR becomes a directory under the user's
     cache ($XDG_CACHE_HOME); an explicit NUMBA_CACHE_DIR is kept."""
-    package = Path(jcbb_compiled.__file__).resolve().parent / '__pycache__'
+    package = Path(jcbb_kernels.__file__).resolve().parent / '__pycache__'
     monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
     monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path))
-    real = jcbb_compiled._writable
-    monkeypatch.setattr(jcbb_compiled, '_writable',
+    real = jcbb_kernels._writable
+    monkeypatch.setattr(jcbb_kernels, '_writable',
                         lambda directory: directory != package and real(directory))
-    jcbb_compiled._choose_cache_dir()
+    jcbb_kernels._choose_cache_dir()
     assert os.environ['NUMBA_CACHE_DIR'] == str(tmp_path / 'data_association_ros' / 'numba')
     assert (tmp_path / 'data_association_ros' / 'numba').is_dir()
     monkeypatch.setenv('NUMBA_CACHE_DIR', '/somewhere/else')
-    jcbb_compiled._choose_cache_dir()
+    jcbb_kernels._choose_cache_dir()
     assert os.environ['NUMBA_CACHE_DIR'] == '/somewhere/else'
