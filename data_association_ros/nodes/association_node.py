@@ -41,6 +41,8 @@ class AssociationNode(ParameterizedNode):
             config['confirm_window'] = max(config['confirm_window'], config['confirm_hits'])
             self.get_logger().error(f'{error}; using confirm_window {config["confirm_window"]}')
         self.pipeline = AssociationPipeline(config, warn=self.get_logger().warning)
+        # JIT, thresholds, first calls: done before any topic exists, so that no scan waits
+        self.start_up_seconds = warm_up(config)
 
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
             ReliabilityPolicy.BEST_EFFORT if config['input_qos'] == 'sensor_data'
@@ -68,7 +70,6 @@ class AssociationNode(ParameterizedNode):
         self.create_timer(config['diagnostics_period'], self.publish_diagnostics)
         self._waiting: deque = deque()   # (observation message, wall time it arrived)
         self.create_timer(0.05, self._answer_waiting)
-        self.start_up_seconds = warm_up(config)   # JIT, thresholds, first calls: before ready
         self.get_logger().info(f'association_node ready: algorithm {config["algorithm"]}, '
                                f'measurement_model {config["measurement_model"]}')
 
