@@ -20,6 +20,7 @@ from visualization_msgs.msg import MarkerArray
 from msg_adapters import diagnostics_message
 
 from ..core import InvalidInputError
+from ..core.associators import jcbb_compiled
 from ..pipelines.association import AssociationPipeline
 from ..pipelines.parameters import NODE_PARAMETERS, check_combination
 from ..pipelines.warm_up import warm_up
@@ -43,6 +44,9 @@ class AssociationNode(ParameterizedNode):
         self.pipeline = AssociationPipeline(config, warn=self.get_logger().warning)
         # JIT, thresholds, first calls: done before any topic exists, so that no scan waits
         self.start_up_seconds = warm_up(config)
+        if not self.start_up_seconds['compiled']:
+            self.get_logger().info('JCBB search not compiled (same answers, slower): '
+                                   f'{jcbb_compiled.unavailable_reason()}')
 
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
             ReliabilityPolicy.BEST_EFFORT if config['input_qos'] == 'sensor_data'
