@@ -1,6 +1,6 @@
 """association_node's per-scan path (issue 18), with real rclpy: the start-up work (compiled
-search, thresholds) is done when the constructor returns, new_landmarks is built only for a
-subscriber, and a fresh node's first scans give the library's answers."""
+search, thresholds) is done when the constructor returns, and a fresh node's first scans give
+the library's answers."""
 import numpy as np
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import PointCloud2
@@ -10,9 +10,7 @@ from data_association_ros import Landmarks, Observations, RobotPose, associate
 from data_association_ros.core.associators import jcbb_compiled
 from data_association_ros.core.gating import chi2_threshold
 from data_association_ros.nodes.association_node import AssociationNode
-from data_association_ros.pipelines.association import AssociationPipeline
-from data_association_ros.pipelines.parameters import NODE_PARAMETERS
-from data_association_ros.pipelines.warm_up import WARM_DOF, _synthetic_messages
+from data_association_ros.pipelines.warm_up import WARM_DOF
 
 from msg_adapters import array_to_cloud, cloud_to_array
 from ros_harness import Graph, odometry
@@ -33,37 +31,6 @@ def test_warm_up_runs_before_the_node_is_ready():
             assert chi2_threshold.cache_info().hits == before + 1
     finally:
         graph.close()
-
-
-def test_new_landmarks_built_only_for_a_subscriber():
-    graph = Graph()
-    try:
-        node = AssociationNode(context=graph.context)
-        graph.add(node)
-        assert not node.pipeline.wanted('new_landmarks')
-        assert node.pipeline.wanted('correspondences')
-        graph.collect(PointCloud2, 'new_landmarks')
-        assert graph.spin_until(lambda: node.pipeline.wanted('new_landmarks'))
-    finally:
-        graph.close()
-
-
-def test_unwanted_new_landmarks_are_not_built_but_still_confirmed():
-    config = {p.name: p.default for p in NODE_PARAMETERS}
-    landmarks, pose, scan = _synthetic_messages(observed=8, count=16)
-    answers = {}
-    for wanted in (True, False):
-        pipeline = AssociationPipeline(dict(config))
-        pipeline.wanted = lambda topic, wanted=wanted: wanted
-        pipeline.on_landmarks(landmarks)
-        pipeline.on_robot_pose(pose)
-        far = cloud_to_array(scan)
-        far['range'][-2:] = 500.0      # two observations outside every gate: NEW
-        answers[wanted] = (pipeline.answer(array_to_cloud(far, scan.header)), pipeline)
-    built, skipped = answers[True][0], answers[False][0]
-    np.testing.assert_array_equal(built.association.assignment, skipped.association.assignment)
-    assert len(cloud_to_array(built.new_landmarks)) == 2 and skipped.new_landmarks is None
-    assert answers[False][1].candidates.confirmed_total == 2
 
 
 def test_fresh_node_answers_its_first_scans_as_the_library():

@@ -71,7 +71,6 @@ class AssociationNode(ParameterizedNode):
         self.transform_pub = self.create_publisher(PoseWithCovarianceStamped,
                                                    'estimated_transform', 10)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self.pipeline.wanted = self._wanted
         self.create_timer(config['diagnostics_period'], self.publish_diagnostics)
         self._waiting: deque = deque()   # (observation message, wall time it arrived)
         self.create_timer(0.05, self._answer_waiting)
@@ -82,10 +81,6 @@ class AssociationNode(ParameterizedNode):
     def statistics(self):
         """Counters and latency (AssociationStatistics)."""
         return self.pipeline.statistics
-
-    def _wanted(self, topic: str) -> bool:
-        """new_landmarks is built only when someone subscribes (the other outputs always)."""
-        return topic != 'new_landmarks' or self.new_landmarks_pub.get_subscription_count() > 0
 
     def _on_robot_pose(self, msg: Odometry) -> None:
         self.pipeline.on_robot_pose(msg)

@@ -77,9 +77,6 @@ class AssociationPipeline:
         self.candidates = CandidateManager()
         self.odometry_history: StampedBuffer = StampedBuffer(200)
         self.multi_hypothesis = MultiHypothesisStage()
-        self.wanted: Callable[[str], bool] = lambda topic: True
-        """Whether an output topic is wanted (the node: it has a subscriber); new_landmarks is
-        built only when it is (the candidates are updated either way)."""
 
     def _reject(self, counter, cause: str, text: str) -> None:
         counter[cause] += 1
@@ -220,8 +217,7 @@ class AssociationPipeline:
         update = self._confirm(config, result, positions, covariances, stamp, model)
         answer = Answer(
             correspondences=correspondences_cloud(msg.header, result, positions),
-            new_landmarks=new_landmarks_cloud(map_header, update.confirmed)
-            if self.wanted('new_landmarks') else None,
+            new_landmarks=new_landmarks_cloud(map_header, update.confirmed),
             candidates=candidates_cloud(map_header, self.candidates.pending,
                                         self.candidates.scan)
             if config['confirm_hits'] > 1 else None,
