@@ -247,9 +247,11 @@ def compiled(enabled: bool) -> Iterator[None]:
 
 def _warm_up_problem() -> None:
     """Run the compiled search on a small range-bearing problem, with and without a deadline
-    and a fixed root, so that every kernel is compiled (or loaded from the cache)."""
+    and a fixed root, without and with a state covariance (writable and read-only), so that every
+    kernel version a search uses is compiled (or loaded from the cache) before it is timed."""
     from ..problem import AssociationProblem
     from ..types import Landmarks, Observations, RobotPose
+    from ..validation import check_covariance_matrix
     from .jcbb_compiled import CompiledSearch
     bearings = np.array([0.0, 0.2, 0.4, 0.6])
     means = 10.0 * np.column_stack([np.cos(bearings), np.sin(bearings)])
@@ -258,10 +260,19 @@ def _warm_up_problem() -> None:
         Observations(np.column_stack([np.full(4, 10.0), bearings - 0.05]),
                      np.tile(np.diag([0.01, 1e-3]), (4, 1, 1)), 'range_bearing'),
         RobotPose([0.0, 0.0, 0.0], np.diag([1e-2, 1e-2, 0.05 ** 2])))
+    # with a state covariance too (the Cholesky-factor path and _joint_blocks), writable and
+    # read-only (a checked one): numba compiles one version per array type
+    state = np.zeros((11, 11))
+    state[:3, :3] = problem.pose.covariance
+    state[3:, 3:] = np.kron(np.eye(4), np.eye(2) * 1e-2)
+    problems = [problem] + [AssociationProblem(problem.landmarks, problem.observations,
+                                               problem.pose, matrix)
+                            for matrix in (state, check_covariance_matrix(state.copy(), 'warm'))]
     candidates = [np.arange(4) for _ in range(4)]
-    for deadline, root in ((None, []), (time.perf_counter() + 3600.0, [(0, 0)])):
-        search = CompiledSearch(problem, 0.99, candidates, [1, 2, 3] if root else [0, 1, 2, 3],
-                                deadline, 0)
-        search.run(0, search.start_from(root))
-        if len(search.best_pairs) != 4:
-            raise RuntimeError(f'compiled search warm-up found {search.best_pairs}')
+    for each in problems:
+        for deadline, root in ((None, []), (time.perf_counter() + 3600.0, [(0, 0)])):
+            search = CompiledSearch(each, 0.99, candidates,
+                                    [1, 2, 3] if root else [0, 1, 2, 3], deadline, 0)
+            search.run(0, search.start_from(root))
+            if len(search.best_pairs) != 4:
+                raise RuntimeError(f'compiled search warm-up found {search.best_pairs}')
