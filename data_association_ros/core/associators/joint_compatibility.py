@@ -233,6 +233,14 @@ def joint_compatibility_search(problem, gate_probability: float, candidates: lis
 _COMPILED = [True]
 
 
+def prepare_search() -> None:
+    """Compile (or load) the compiled search now, if it is on: callers do this before they start
+    a time budget's clock, so that a process's first search is not cut short by it."""
+    if _COMPILED[0]:
+        from . import jcbb_compiled
+        jcbb_compiled.available()
+
+
 @contextmanager
 def compiled(enabled: bool) -> Iterator[None]:
     """Within the block, joint_compatibility_search uses the compiled search (when available)
