@@ -26,7 +26,7 @@ setup(
     maintainer_email='dev@data-association-ros.invalid',
     description='Data association (NN, ML, GNN, JCBB, IoU) as a ROS 2 node and a numpy library.',
     license='Apache-2.0',
-    extras_require={'test': ['pytest', 'hypothesis'],
+    extras_require={'test': ['pytest', 'hypothesis'], 'fast': ['numba'],
                     'benchmarks': ['matplotlib', 'stonesoup'], 'mot': ['trackeval']},
     entry_points={
         'console_scripts': [

@@ -2,10 +2,14 @@
 
 Starts association_node (per algorithm) and a bare rclpy echo node as separate processes on
 loopback DDS, sends the same K-observation scans to each, one at a time, and prints median and
-p99 of the round trip; the echo's round trip (same message sizes, no work) is the baseline
-measured in the same run.
+p99 of the round trip (after --warmup messages) and their ratios to the echo's (same message
+sizes, no work: the baseline measured in the same run), and the first answered scan's round
+trip (after the server's topics matched; a scan whose map or pose has not arrived yet is
+skipped by the node) against the median.
 
     python benchmarks/node_latency.py [--observations 50] [--landmarks 200] [--messages 200]
+                                      [--algorithms mahalanobis_nn,gnn,jcbb]
+                                      (NAME:nojit: the node without the compiled JCBB search)
 """
 from __future__ import annotations
 
@@ -78,10 +82,16 @@ def scene(observations: int, landmarks: int, seed: int = 0):
 
 
 def measure(namespace: str, command: list[str], args, landmark_points, observation_points,
-            pose) -> np.ndarray:
-    """Round-trip times [ms] of args.messages observation messages through one server."""
+            pose, needs_inputs: bool = True) -> np.ndarray:
+    """Round-trip times [ms] of the args.warmup + args.messages observation messages through one
+    server (NaN for a message not answered within 5 s)."""
+    no_jit = command[-1].endswith(':nojit')
+    if no_jit:
+        command = command[:-1] + [command[-1][:-len(':nojit')]]
     process = subprocess.Popen(command + ['--ros-args', '-r', f'__ns:={namespace}'],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                               env={**os.environ, 'DATA_ASSOCIATION_ROS_NO_JIT': '1'} if no_jit
+                               else None)
     node = rclpy.create_node('latency_client', namespace=namespace)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
@@ -89,12 +99,22 @@ def measure(namespace: str, command: list[str], args, landmark_points, observati
 
     def on_reply(msg):
         received[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = time.perf_counter()
-    node.create_subscription(PointCloud2, 'correspondences', on_reply, QOS)
+    reply = node.create_subscription(PointCloud2, 'correspondences', on_reply, QOS)
     landmarks_pub = node.create_publisher(PointCloud2, 'landmarks', QOS)
     observations_pub = node.create_publisher(PointCloud2, 'observations', QOS)
     pose_pub = node.create_publisher(Odometry, 'robot_pose', QOS)
     try:
         wait_until_matched(executor, node, observations_pub, 'correspondences')
+        # every connection of the round trip matched, so that the first scan's time is its own
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and not (
+                reply.get_publisher_count() and (not needs_inputs or (
+                    landmarks_pub.get_subscription_count()
+                    and pose_pub.get_subscription_count()))):
+            executor.spin_once(timeout_sec=0.05)
+        settle = time.monotonic() + 0.5   # matching is per side: let both sides finish it
+        while time.monotonic() < settle:
+            executor.spin_once(timeout_sec=0.05)
         latencies = []
         for k in range(args.messages + args.warmup):
             stamp = Header()
@@ -119,8 +139,7 @@ def measure(namespace: str, command: list[str], args, landmark_points, observati
             deadline = time.monotonic() + 5
             while key not in received and time.monotonic() < deadline:
                 executor.spin_once(timeout_sec=0.005)
-            if key in received and k >= args.warmup:
-                latencies.append((received[key] - sent) * 1000.0)
+            latencies.append((received[key] - sent) * 1000.0 if key in received else np.nan)
         return np.array(latencies)
     finally:
         close(executor, node, process)
@@ -132,7 +151,7 @@ def main() -> None:
     parser.add_argument('--landmarks', type=int, default=200)
     parser.add_argument('--messages', type=int, default=200)
     parser.add_argument('--warmup', type=int, default=10)
-    parser.add_argument('--algorithms', default='mahalanobis_nn,jcbb')
+    parser.add_argument('--algorithms', default='mahalanobis_nn,gnn,jcbb')
     parser.add_argument('--echo', action='store_true', help=argparse.SUPPRESS)
     args, ros_arguments = parser.parse_known_args()
     if args.echo:
@@ -148,16 +167,22 @@ def main() -> None:
                 for name in args.algorithms.split(',')]
     print(f'K={args.observations} observations, N={args.landmarks} landmarks, '
           f'{args.messages} messages each, ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]}')
-    print(f'{"server":<18}{"answered":>9}{"median ms":>11}{"p99 ms":>9}{"x echo":>8}')
+    print(f'{"server":<18}{"answered":>9}{"median ms":>11}{"p99 ms":>9}{"x echo":>8}'
+          f'{"p99 x echo":>11}{"first ms":>10}{"first/median":>13}')
     baseline = None
     for index, (name, command) in enumerate(servers):
-        latencies = measure(f'/latency{index}', command, args, landmark_points,
-                            observation_points, pose)
+        everything = measure(f'/latency{index}', command, args, landmark_points,
+                             observation_points, pose, needs_inputs=index > 0)
+        latencies = everything[args.warmup:]
+        latencies = latencies[np.isfinite(latencies)]
         median = float(np.median(latencies)) if len(latencies) else float('nan')
         p99 = float(np.percentile(latencies, 99)) if len(latencies) else float('nan')
-        baseline = median if baseline is None else baseline
+        answered = everything[np.isfinite(everything)]
+        first = float(answered[0]) if len(answered) else float('nan')
+        baseline = (median, p99) if baseline is None else baseline
         print(f'{name:<18}{len(latencies):>9}{median:>11.2f}{p99:>9.2f}'
-              f'{median / baseline:>8.1f}')
+              f'{median / baseline[0]:>8.2f}{p99 / baseline[1]:>11.2f}{first:>10.2f}'
+              f'{first / median:>13.2f}')
     rclpy.shutdown()
 
 

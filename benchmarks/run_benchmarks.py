@@ -10,6 +10,9 @@ Sections:
   jcbb       fast jcbb versus the straightforward reference JCBB of the test suite on 20-40
              observation scans (the clutter_range_bearing scenario, and denser random scans):
              identical answers, time ratio
+  compiled   jcbb with the compiled search (numba) versus the pure-Python search (the jcbb of
+             before the compiled one) on the same scans and node_latency's K = 50, N = 200
+             scan: identical answers and node counts, time ratio
   stonesoup  gnn versus Stone Soup's GNNWith2DAssignment at N = 10, 50, 200
   seed       seed 003's approximate Cholesky joint NIS versus the exact incremental one
   budget     jcbb's time_budget_ms: elapsed time and overshoot on searches that need longer
@@ -28,13 +31,14 @@ import sys
 import time
 from pathlib import Path
 
+import data_association_ros  # noqa: F401  (before numpy: one BLAS thread, as in the node)
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'test'))  # the reference JCBB and random problems of the tests
 
-from data_association_ros import (Landmarks, Observations, associate,  # noqa: E402
-                                  available_algorithms)
+from data_association_ros import (Landmarks, Observations, RobotPose,  # noqa: E402
+                                  associate, available_algorithms)
 from data_association_ros.core.associators import REGISTRY  # noqa: E402
 from data_association_ros.core.problem import AssociationProblem  # noqa: E402
 from problem_factory import random_range_bearing_problem  # noqa: E402
@@ -43,7 +47,7 @@ from scenes import Scene, bag_scenes, box_scene, point_map_scene, range_bearing_
 from seed_approximate_jnis import approximate_nis, search_pairs  # noqa: E402
 from timing import median_p95_ms, time_calls  # noqa: E402
 
-SECTIONS = ('sweep', 'jcbb', 'stonesoup', 'seed', 'budget', 'multi_hypothesis')
+SECTIONS = ('sweep', 'jcbb', 'compiled', 'stonesoup', 'seed', 'budget', 'multi_hypothesis')
 
 
 def machine_line() -> str:
@@ -154,6 +158,56 @@ def fast_versus_reference(sets: dict[str, list[Scene]]) -> str:
     return table('jcbb versus the reference JCBB (full joint covariance factorised per node)',
                  ['scans', 'count', 'K', 'same answer', 'jcbb median ms', 'reference median ms',
                   'median ratio', 'total-time ratio'], rows)
+
+
+def compiled_versus_python(sets: dict[str, list[Scene]]) -> str:
+    """Section compiled: jcbb with the compiled search versus the pure-Python one, each scan
+    timed for both in turn."""
+    from data_association_ros.core.associators import jcbb_compiled
+    from data_association_ros.core.associators.joint_compatibility import compiled
+    if not jcbb_compiled.available():
+        return f'compiled search unavailable: {jcbb_compiled.unavailable_reason()}\n'
+    rows = []
+    for name, scenes in sets.items():
+        fast, slow, same, ratios = [], [], 0, []
+        for scene in scenes:
+            def call():
+                return associate(**scene.inputs(), algorithm='jcbb')
+            with compiled(False):
+                python_times = time_calls(call, min_repeats=5, max_repeats=50, min_seconds=0.05)
+                expected = call()
+            compiled_times = time_calls(call, min_repeats=5, max_repeats=200, min_seconds=0.05)
+            answer = call()
+            same += int(np.array_equal(answer.assignment, expected.assignment)
+                        and answer.extras['search_nodes'] == expected.extras['search_nodes'])
+            fast.append(float(np.median(compiled_times)))
+            slow.append(float(np.median(python_times)))
+            ratios.append(slow[-1] / fast[-1])
+        k = [len(s.observations) for s in scenes]
+        rows.append([name, len(scenes), f'{min(k)}-{max(k)}', f'{same}/{len(scenes)}',
+                     np.median(slow) * 1e3, np.median(fast) * 1e3, float(np.median(ratios)),
+                     sum(slow) / sum(fast)])
+    return table('jcbb: compiled search (numba) versus the pure-Python search, whole associate() '
+                 'call', ['scans', 'count', 'K', 'same answer and nodes', 'Python median ms',
+                          'compiled median ms', 'median ratio', 'total-time ratio'], rows)
+
+
+def node_scene() -> Scene:
+    """node_latency.py's scan as a Scene: K = 50 range-bearing returns (10 clutter), N = 200
+    landmarks, no state covariance."""
+    from node_latency import scene
+    landmark_points, observation_points, pose = scene(50, 200)
+    covariances = np.zeros((50, 2, 2))
+    covariances[:, 0, 0] = observation_points['var_range']
+    covariances[:, 1, 1] = observation_points['var_bearing']
+    landmarks = Landmarks(landmark_points['id'].astype(int),
+                          np.column_stack([landmark_points['x'], landmark_points['y']]).astype(
+                              float), np.tile(np.eye(2) * 0.01, (200, 1, 1)))
+    observations = Observations(np.column_stack([observation_points['range'],
+                                                 observation_points['bearing']]).astype(float),
+                                covariances, 'range_bearing')
+    return Scene(landmarks, observations, RobotPose(pose, np.diag([0.01, 0.01, 0.003])), None,
+                 np.zeros(50, dtype=int))
 
 
 def stone_soup(sizes: list[int], seeds: int) -> str:
@@ -292,6 +346,8 @@ def main(argv=None) -> int:
         'sweep': lambda: sweep([10, 30] if quick else [10, 30, 100, 300, 1000],
                                args.max_call_s, args.out),
         'jcbb': lambda: fast_versus_reference(scans),
+        'compiled': lambda: compiled_versus_python({**scans, 'node_latency K=50 N=200':
+                                                    [node_scene()]}),
         'stonesoup': lambda: stone_soup([10, 50] if quick else [10, 50, 200], 1 if quick else 3),
         'seed': lambda: seed_approximation(scans),
         'multi_hypothesis': lambda: multi_hypothesis(args.out),

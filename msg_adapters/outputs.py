@@ -45,16 +45,6 @@ def correspondences_cloud(header, association: Association, map_positions: np.nd
     return array_to_cloud(points, header)
 
 
-def _covariance_fields(points: np.ndarray, covariance: Optional[np.ndarray]) -> None:
-    """cov_xx, cov_xy, cov_yy of a 2x2 (or the x, y block of a larger) covariance; NaN when
-    None."""
-    if covariance is None:
-        points['cov_xx'] = points['cov_xy'] = points['cov_yy'] = np.nan
-    else:
-        points['cov_xx'], points['cov_xy'], points['cov_yy'] = \
-            covariance[0, 0], covariance[0, 1], covariance[1, 1]
-
-
 def new_landmarks_cloud(header, confirmed: Sequence[ConfirmedLandmark]):
     """PointCloud2 of the landmarks confirmed at this scan (map frame), one point per
     confirming observation: its index and stamp, the candidate id (one landmark per distinct
@@ -65,23 +55,39 @@ def new_landmarks_cloud(header, confirmed: Sequence[ConfirmedLandmark]):
     if not rows:
         return None
     points = np.zeros(len(rows), dtype=NEW_LANDMARK_DTYPE)
-    for point, (landmark, stamp, index) in zip(points, rows):
-        point['observation'], point['candidate'] = index, landmark.candidate
-        point['stamp_sec'], point['stamp_nanosec'] = divmod(stamp, 1_000_000_000)
-        point['x'], point['y'] = landmark.mean[0], landmark.mean[1]
-        _covariance_fields(point, landmark.covariance)
+    landmarks, stamps, indices = zip(*rows)
+    points['observation'] = indices
+    points['candidate'] = [landmark.candidate for landmark in landmarks]
+    points['stamp_sec'], points['stamp_nanosec'] = np.divmod(np.array(stamps, dtype=np.int64),
+                                                             1_000_000_000)
+    means = np.array([landmark.mean[:2] for landmark in landmarks], dtype=float)
+    points['x'], points['y'] = means[:, 0], means[:, 1]
+    _covariance_columns(points, [landmark.covariance for landmark in landmarks])
     return array_to_cloud(points, header)
+
+
+def _covariance_columns(points: np.ndarray, covariances: Sequence[Optional[np.ndarray]]) -> None:
+    """cov_xx, cov_xy, cov_yy of each point from its covariance (the x, y block; NaN when
+    None)."""
+    blocks = np.full((len(points), 2, 2), np.nan)
+    for row, covariance in enumerate(covariances):
+        if covariance is not None:
+            blocks[row] = covariance[:2, :2]
+    points['cov_xx'], points['cov_xy'], points['cov_yy'] = \
+        blocks[:, 0, 0], blocks[:, 0, 1], blocks[:, 1, 1]
 
 
 def candidates_cloud(header, candidates: Sequence[Candidate], scan: int):
     """PointCloud2 of the pending candidate landmarks (map frame): id, x, y, covariance, hits
     so far, scans in a row without a hit (possibly empty, so that viewers clear)."""
     points = np.zeros(len(candidates), dtype=CANDIDATE_DTYPE)
-    for point, candidate in zip(points, candidates):
-        point['candidate'] = candidate.id
-        point['x'], point['y'] = candidate.mean[0], candidate.mean[1]
-        _covariance_fields(point, candidate.covariance)
-        point['hits'], point['misses'] = len(candidate.hit_scans), candidate.misses(scan)
+    if len(candidates):
+        points['candidate'] = [candidate.id for candidate in candidates]
+        means = np.array([candidate.mean[:2] for candidate in candidates], dtype=float)
+        points['x'], points['y'] = means[:, 0], means[:, 1]
+        _covariance_columns(points, [candidate.covariance for candidate in candidates])
+        points['hits'] = [len(candidate.hit_scans) for candidate in candidates]
+        points['misses'] = [candidate.misses(scan) for candidate in candidates]
     return array_to_cloud(points, header)
 
 

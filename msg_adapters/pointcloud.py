@@ -5,6 +5,7 @@ row_step padding, height > 1 and big-endian data; rejects count != 1.  No per-po
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Mapping, Sequence, Union
 
 import numpy as np
@@ -105,24 +106,41 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         for name, values in columns.items():
             structured[name] = values
         array = structured
-    formats, fields, offset = [], [], 0
-    for name in array.dtype.names:
-        dtype = _field_dtype(name, array[name])
-        formats.append((name, dtype))
-        fields.append(PointField(name=name, offset=offset, count=1,
-                                 datatype=_DATATYPE_OF[(dtype.kind, dtype.itemsize)]))
-        offset += dtype.itemsize
-    packed = np.empty(len(array), dtype=formats)
-    for name, _ in formats:
-        packed[name] = array[name]
-    floats = [name for name, dtype in formats if dtype.kind == 'f']
-    msg = PointCloud2(height=1, width=len(array), fields=fields, is_bigendian=False,
-                      point_step=offset, row_step=offset * len(array),
-                      is_dense=not any(np.isnan(packed[n]).any() for n in floats))
+    packed_dtype, fields = _packed_layout(array.dtype)
+    if array.dtype == packed_dtype:
+        packed = array
+    else:
+        for name in array.dtype.names:
+            _field_dtype(name, array[name])    # int64 values must fit INT32
+        packed = np.empty(len(array), dtype=packed_dtype)
+        for name in array.dtype.names:
+            packed[name] = array[name]
+    msg = PointCloud2(height=1, width=len(array), is_bigendian=False,
+                      point_step=packed_dtype.itemsize,
+                      row_step=packed_dtype.itemsize * len(array),
+                      is_dense=not any(np.isnan(packed[name]).any()
+                                       for name in packed_dtype.names
+                                       if packed_dtype.fields[name][0].kind == 'f'))
+    msg.fields = [PointField(name=name, offset=offset, count=1, datatype=datatype)
+                  for name, offset, datatype in fields]
     if header is not None:
         msg.header = header
     msg.data = packed.tobytes()
     return msg
+
+
+@lru_cache(maxsize=128)
+def _packed_layout(dtype: np.dtype) -> tuple[np.dtype, tuple[tuple[str, int, int], ...]]:
+    """(packed little-endian dtype, its fields as (name, offset, PointField datatype)) of a
+    structured dtype."""
+    formats, fields, offset = [], [], 0
+    for name in dtype.names:
+        field = np.dtype(dtype.fields[name][0])
+        packed = _field_dtype(name, np.zeros(0, dtype=field))
+        formats.append((name, packed))
+        fields.append((name, offset, _DATATYPE_OF[(packed.kind, packed.itemsize)]))
+        offset += packed.itemsize
+    return np.dtype(formats), tuple(fields)
 
 
 def _field_dtype(name: str, values: np.ndarray) -> np.dtype:

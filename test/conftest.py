@@ -1,8 +1,16 @@
-"""Test set-up: the test folder on sys.path (for the helpers) and DDS kept on loopback with a
-domain id of this run's own (DESIGN.md 6)."""
+"""Test set-up: the test folder on sys.path (for the helpers), DDS kept on loopback with a
+domain id of this run's own (DESIGN.md 6), the compiled JCBB search built once up front."""
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(__file__))
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('ROS_DOMAIN_ID', str(5 + os.getpid() % 90))
+
+
+def pytest_sessionstart(session):
+    """Compile the JCBB kernels (or load them from numba's cache) once, in this process, before
+    any test: node processes the tests start then load them from the cache instead of compiling
+    them within their start-up timeouts (a fresh clone has no cache)."""
+    from data_association_ros.core.associators import jcbb_compiled
+    jcbb_compiled.warm_up()

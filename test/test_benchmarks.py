@@ -1,5 +1,6 @@
 """The benchmark script runs (quick mode) and its comparisons hold: fast jcbb gives the reference
-JCBB's answers, the time budget cuts a long search short.  Timings are not asserted."""
+JCBB's answers, the compiled search the pure-Python one's, the time budget cuts a long search
+short.  Timings are not asserted."""
 import re
 import sys
 from pathlib import Path
@@ -17,7 +18,7 @@ def rows_of(text: str, title: str) -> list[list[str]]:
 
 
 def test_quick_benchmarks_agree_with_the_reference(tmp_path):
-    assert run_benchmarks.main(['--quick', '--sections', 'jcbb,seed,budget',
+    assert run_benchmarks.main(['--quick', '--sections', 'jcbb,compiled,seed,budget',
                                 '--out', str(tmp_path)]) == 0
     text = (tmp_path / 'benchmarks.md').read_text()
     assert re.search(r'\d+ cores', text)
@@ -26,6 +27,14 @@ def test_quick_benchmarks_agree_with_the_reference(tmp_path):
     for row in jcbb:
         same, total = row[3].split('/')
         assert same == total == row[1]
+    from data_association_ros.core.associators import jcbb_compiled
+    if jcbb_compiled.available():
+        compiled = rows_of(text, 'jcbb: compiled search (numba) versus the pure-Python search')
+        assert [r[0] for r in compiled] == ['clutter_range_bearing', 'dense random',
+                                            'node_latency K=50 N=200']
+        for row in compiled:
+            same, total = row[3].split('/')
+            assert same == total == row[1]
     budget_rows = rows_of(text, 'jcbb time_budget_ms')
     assert len(budget_rows) == 4
     for row in budget_rows:

@@ -293,7 +293,7 @@ def test_executable_answers_over_dds():
         g.collect(PointCloud2, 'correspondences')
         g.publisher(PointCloud2, 'landmarks')
         g.publisher(PointCloud2, 'observations')
-        g.wait_for_subscribers(['landmarks', 'observations'], timeout=20.0)
+        g.wait_for_subscribers(['landmarks', 'observations'], timeout=60.0)  # start-up
         assert g.spin_until(lambda: g.tester.count_publishers('correspondences') > 0, 10.0)
         publish_map(g)
         settle(g, 0.5)

@@ -189,7 +189,10 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
             if not alive() or time.monotonic() > deadline:
                 raise BagError('association_node / ekf_slam_node did not come up')
             executor.spin_once(timeout_sec=0.05)
-        settle = time.monotonic() + 1.0
+        # the nodes' endpoints are discovered, but whether association_node's subscriptions have
+        # matched ekf_slam_node's publishers is not visible from here; association_node comes
+        # up last (numba import, start-up warm-up), so give the matching time
+        settle = time.monotonic() + 3.0
         while time.monotonic() < settle:
             executor.spin_once(timeout_sec=0.05)
         for topic, msg in messages:

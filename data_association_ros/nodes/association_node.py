@@ -26,8 +26,10 @@ from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import diagnostics_message
 
+from ..core.associators import jcbb_compiled
 from ..pipelines.association import AssociationPipeline
 from ..pipelines.parameters import NODE_PARAMETERS, check_combination
+from ..pipelines.warm_up import warm_up
 from .parameterized_node import ParameterizedNode, spin, usage_text
 
 MAX_WAITING = 10
@@ -41,6 +43,11 @@ class AssociationNode(ParameterizedNode):
         super().__init__('association_node', NODE_PARAMETERS, check_combination, **kwargs)
         config = self.config
         self.pipeline = AssociationPipeline(config, warn=self.get_logger().warning)
+        # JIT, thresholds, first calls: done before any topic exists, so that no scan waits
+        self.start_up_seconds = warm_up(config)
+        if not self.start_up_seconds['compiled']:
+            self.get_logger().info('JCBB search not compiled (same answers, slower): '
+                                   f'{jcbb_compiled.unavailable_reason()}')
 
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
             ReliabilityPolicy.BEST_EFFORT if config['input_qos'] == 'sensor_data'

@@ -28,7 +28,8 @@ from ..parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, ParameterSpe
 from ..transforms import estimate_rigid_transform, ransac_rigid_transform
 from .base import Associator
 from .jcbb import deadline_of, individually_compatible, search_result
-from .joint_compatibility import MAX_NODES, TIME_BUDGET_MS, JointCompatibilitySearch
+from .joint_compatibility import (MAX_NODES, TIME_BUDGET_MS, joint_compatibility_search,
+                                  prepare_search)
 
 MINIMAL_ITERATIONS = ParameterSpec(
     'minimal_iterations', 50, 'cap on the pairs dropped while building the minimal association',
@@ -83,6 +84,7 @@ def run(problem, gate_probability: float, min_innovation_variance: float, time_b
     if problem.observations.model not in ('point_map', 'point_robot', 'range_bearing'):
         raise InvalidInputError(f'observations.model: jcbb_points needs 2-D points, not '
                                 f'{problem.observations.model!r}')
+    prepare_search()   # a first compilation is not part of the time budget
     started = time.perf_counter()
     gated, candidates, _ = individually_compatible(problem, gate_probability)
     nearest = np.array([c[0] if len(c) else -1 for c in candidates], dtype=np.intp)
@@ -94,8 +96,8 @@ def run(problem, gate_probability: float, min_innovation_variance: float, time_b
     in_minimal = {i for i, _ in minimal}
     order = sorted((i for i in range(len(candidates)) if len(candidates[i])
                     and i not in in_minimal), key=lambda i: (len(candidates[i]), i))
-    search = JointCompatibilitySearch(problem, gate_probability, candidates, order,
-                                      deadline_of(started, time_budget_ms), max_nodes)
+    search = joint_compatibility_search(problem, gate_probability, candidates, order,
+                                        deadline_of(started, time_budget_ms), max_nodes)
     nis = search.start_from(minimal)
     search.run(0, nis)
     extras = {'minimal_pairs': len(minimal)}

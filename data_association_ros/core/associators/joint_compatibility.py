@@ -21,7 +21,8 @@ from __future__ import annotations
 import math
 import sys
 import time
-from typing import Optional
+from contextlib import contextmanager
+from typing import Iterator, Optional
 
 import numpy as np
 
@@ -214,3 +215,72 @@ class JointCompatibilitySearch:
         self._search(position + 1, nis)
 
 
+
+
+def joint_compatibility_search(problem, gate_probability: float, candidates: list[np.ndarray],
+                               order: list[int], deadline: Optional[float], max_nodes: int,
+                               classic: bool = False, nis_ties: bool = True):
+    """The search of JointCompatibilitySearch's arguments: jcbb_compiled.CompiledSearch (the
+    same answer, node count and truncation) when numba is available and compiled() is on, else
+    JointCompatibilitySearch."""
+    from . import jcbb_compiled
+    kind = jcbb_compiled.CompiledSearch if _COMPILED[0] and jcbb_compiled.available() \
+        else JointCompatibilitySearch
+    return kind(problem, gate_probability, candidates, order, deadline, max_nodes, classic,
+                nis_ties)
+
+
+_COMPILED = [True]
+
+
+def prepare_search() -> None:
+    """Compile (or load) the compiled search now, if it is on: callers do this before they start
+    a time budget's clock, so that a process's first search is not cut short by it."""
+    if _COMPILED[0]:
+        from . import jcbb_compiled
+        jcbb_compiled.available()
+
+
+@contextmanager
+def compiled(enabled: bool) -> Iterator[None]:
+    """Within the block, joint_compatibility_search uses the compiled search (when available)
+    or not (the pure-Python one: the reference for tests and the benchmark's baseline)."""
+    previous = _COMPILED[0]
+    _COMPILED[0] = enabled
+    try:
+        yield
+    finally:
+        _COMPILED[0] = previous
+
+
+def _warm_up_problem() -> None:
+    """Run the compiled search on a small range-bearing problem, with and without a deadline
+    and a fixed root, without and with a state covariance (writable and read-only), so that every
+    kernel version a search uses is compiled (or loaded from the cache) before it is timed."""
+    from ..problem import AssociationProblem
+    from ..types import Landmarks, Observations, RobotPose
+    from ..validation import check_covariance_matrix
+    from .jcbb_compiled import CompiledSearch
+    bearings = np.array([0.0, 0.2, 0.4, 0.6])
+    means = 10.0 * np.column_stack([np.cos(bearings), np.sin(bearings)])
+    problem = AssociationProblem(
+        Landmarks([0, 1, 2, 3], means, np.tile(np.eye(2) * 1e-2, (4, 1, 1))),
+        Observations(np.column_stack([np.full(4, 10.0), bearings - 0.05]),
+                     np.tile(np.diag([0.01, 1e-3]), (4, 1, 1)), 'range_bearing'),
+        RobotPose([0.0, 0.0, 0.0], np.diag([1e-2, 1e-2, 0.05 ** 2])))
+    # with a state covariance too (the Cholesky-factor path and _joint_blocks), writable and
+    # read-only (a checked one): numba compiles one version per array type
+    state = np.zeros((11, 11))
+    state[:3, :3] = problem.pose.covariance
+    state[3:, 3:] = np.kron(np.eye(4), np.eye(2) * 1e-2)
+    problems = [problem] + [AssociationProblem(problem.landmarks, problem.observations,
+                                               problem.pose, matrix)
+                            for matrix in (state, check_covariance_matrix(state.copy(), 'warm'))]
+    candidates = [np.arange(4) for _ in range(4)]
+    for each in problems:
+        for deadline, root in ((None, []), (time.perf_counter() + 3600.0, [(0, 0)])):
+            search = CompiledSearch(each, 0.99, candidates,
+                                    [1, 2, 3] if root else [0, 1, 2, 3], deadline, 0)
+            search.run(0, search.start_from(root))
+            if len(search.best_pairs) != 4:
+                raise RuntimeError(f'compiled search warm-up found {search.best_pairs}')

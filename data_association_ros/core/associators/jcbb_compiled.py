@@ -1,0 +1,287 @@
+"""Compiled joint compatibility search (numba; optional: without numba, or when it fails to
+compile, `available()` is False and joint_compatibility's pure-Python search runs).
+
+The same depth-first branch and bound as joint_compatibility.JointCompatibilitySearch: the same
+search order, pruning, tie rule, node count and budget semantics, hence the same answer (test:
+test_jcbb_compiled.py).  What differs is how it gets there:
+
+* the recursion is an explicit per-position state (stage, next candidate, NIS, pairs on entry),
+  so the search is resumable: with a deadline it returns to Python after its first node and
+  then every PAUSE_EVERY nodes, and the caller reads the clock there (numba has no clock);
+* without a state covariance the pose is the only correlation between predictions:
+  C_H = blockdiag(B_t) + G_H U U^T G_H^T with B_t = H_m P_j H_m^T + R_i, G_t = dh/dpose and
+  U U^T = the pose covariance, so (Woodbury)  d2_H = a - h^T (I + M)^-1 h  with
+  a = sum nu_t^T B_t^-1 nu_t,  h = sum (G_t U)^T B_t^-1 nu_t,  M = sum (G_t U)^T B_t^-1 G_t U:
+  three running sums per depth, O(m^2 + 27) per node (low_rank_terms);
+* otherwise it keeps the Cholesky factor L of C_H (not L^-1) and, per candidate landmark a, the
+  block rows X_a = L^-1 Cov(h_H, h_a) already computed, by forward substitution
+  X_a[t] = D_t^-1 (Cov(h_t, h_a) - sum_{q<t} L[t, q] X_a[q]).  A row depends on the pairs up to
+  t only, so it is reused while they are unchanged (a version stamp per depth); with X = X_a:
+  D = S_ij - X^T X,  w_new = D_L^-1 (nu_ij - X^T w),  d2_new = d2 + |w_new|^2,  new block row
+  of L = [X^T, D_L];
+* innovations and S are taken for the candidate pairs only (pair_terms), the joint covariance
+  of the candidate landmarks by a compiled product (_joint_blocks).
+
+The kernels are in jcbb_kernels.py (numba, cached on disk); `warm_up()` compiles (or loads)
+them ahead of the first search; DATA_ASSOCIATION_ROS_NO_JIT=1 switches them off.
+"""
+from __future__ import annotations
+
+import time
+from functools import lru_cache
+from typing import Optional
+
+import numpy as np
+
+from ..gating import chi2_threshold
+from . import jcbb_kernels
+from .jcbb_kernels import (BEST_COUNT, ISTATE_SIZE, NODES, NPAIRS, PAUSE_EVERY, PAUSED, POS,
+                           RUNNING, START, STATUS, NEXT_PAUSE, TRUNCATED, _extend, _joint_blocks,
+                           _push, search)
+
+
+def joint_covariance(problem, local: np.ndarray) -> np.ndarray:
+    """Cov(h_a, h_b) for a, b in `local` (L, L, m, m): the compiled _joint_blocks with a state
+    covariance, else the problem's joint_prediction_covariance."""
+    if problem.state_covariance is None or len(local) == 0:
+        return np.ascontiguousarray(problem.joint_prediction_covariance(local))
+    _, h_m, h_x = problem._prediction
+    m = problem.observations.dim
+    out = np.empty((len(local), len(local), m, m))
+    _joint_blocks(np.ascontiguousarray(h_x), np.ascontiguousarray(h_m),
+                  np.ascontiguousarray(problem.state_covariance),
+                  np.asarray(local, dtype=np.int64), out)
+    return out
+
+
+def pair_terms(problem, rows: np.ndarray, columns: np.ndarray):
+    """(nu (E, m), S (E, m, m)) of the pairs (rows[e], columns[e]): the problem's innovations
+    and innovation covariances H P H^T + R floored at min_innovation_variance, for these pairs
+    only."""
+    s = problem.prediction_covariances[columns] + problem.observations.covariances[rows]
+    if problem.min_innovation_variance > 0:
+        diagonal = np.einsum('...ii->...i', s)
+        diagonal[...] = np.maximum(diagonal, problem.min_innovation_variance)
+    return np.ascontiguousarray(problem.innovations[rows, columns]), s
+
+
+def low_rank_terms(problem, rows: np.ndarray, columns: np.ndarray):
+    """Per candidate pair (rows[e], columns[e]) the terms of _extend_low_rank: (nu^T B^-1 nu
+    (E,), (G U)^T B^-1 nu (E, 3), (G U)^T B^-1 G U (E, 3, 3)) with B = H_m P_j H_m^T + R_i,
+    G = H_x and U U^T = the pose covariance; None when that form does not hold exactly (a
+    state covariance, a floor on S that may bind, a B not positive definite)."""
+    if problem.state_covariance is not None or problem.landmarks.covariances is None or \
+            problem.observations.covariances is None:
+        return None
+    _, h_m, h_x = problem._prediction
+    pose = np.zeros((3, 3)) if problem.pose is None else problem.pose.covariance
+    values, vectors = np.linalg.eigh(pose)
+    root = vectors * np.sqrt(np.maximum(values, 0.0))
+    g = h_x[columns] @ root
+    hm = h_m[columns]
+    b = hm @ problem.landmarks.covariances[columns] @ np.swapaxes(hm, 1, 2) + \
+        problem.observations.covariances[rows]
+    floor = problem.min_innovation_variance
+    if floor > 0 and len(rows):
+        diagonal = np.einsum('eii->ei', b) + np.einsum('eij,eij->ei', g, g)
+        if not (diagonal > 2.0 * floor).all():
+            return None
+    try:
+        np.linalg.cholesky(b)
+        b_inverse = np.linalg.inv(b)
+    except np.linalg.LinAlgError:
+        return None
+    nu = problem.innovations[rows, columns]
+    b_nu = np.einsum('eij,ej->ei', b_inverse, nu)
+    b_g = b_inverse @ g
+    return (np.einsum('ei,ei->e', nu, b_nu), np.einsum('eir,ei->er', g, b_nu),
+            np.ascontiguousarray(np.swapaxes(g, 1, 2) @ b_g))
+
+
+_NO_LOW_RANK = (np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1, 1)))
+"""Zero-sized stand-ins for the low-rank arrays of a Cholesky-factor search (never written)."""
+
+
+@lru_cache(maxsize=256)
+def _thresholds(probability: float, m: int, most: int) -> np.ndarray:
+    """chi2(m l, probability) for l = 0..most (0 for l = 0); shared: never written."""
+    return np.array([chi2_threshold(probability, m * l) if l else 0.0 for l in range(most + 1)])
+
+
+class CompiledSearch:
+    """JointCompatibilitySearch's interface (start_from, run, best_pairs, best_nis, nodes,
+    truncated) on the compiled kernel; same arguments as JointCompatibilitySearch."""
+
+    def __init__(self, problem, gate_probability: float, candidates: list[np.ndarray],
+                 order: list[int], deadline: Optional[float], max_nodes: int,
+                 classic: bool = False, nis_ties: bool = True) -> None:
+        m = problem.observations.dim
+        self.problem = problem
+        k, most = len(order), len(candidates)
+        self.order = np.asarray(order, dtype=np.int64)
+        sizes = np.fromiter((len(candidates[i]) for i in order), dtype=np.int64, count=k)
+        self.cptr = np.zeros(k + 1, dtype=np.int64)
+        np.cumsum(sizes, out=self.cptr[1:])
+        self.ccols = np.concatenate([candidates[i] for i in order]).astype(np.int64) if k \
+            else np.zeros(0, dtype=np.int64)
+        marked = np.zeros(problem.sizes[1], dtype=np.int64)
+        if most:   # every candidate landmark (start_from's pairs too)
+            marked[np.concatenate(candidates).astype(np.intp)] = 1
+        self.local = np.flatnonzero(marked)
+        count = len(self.local)
+        self.position_of = np.cumsum(marked) - 1    # local index of each marked landmark
+        self.cloc = self.position_of[self.ccols]
+        # positions searching each local landmark (CSR by landmark)
+        positions = np.repeat(np.arange(k, dtype=np.int64), sizes)
+        self.lpos = positions[np.argsort(self.cloc, kind='stable')]
+        self.lptr = np.zeros(count + 1, dtype=np.int64)
+        np.cumsum(np.bincount(self.cloc, minlength=count), out=self.lptr[1:])
+        self.thresholds = _thresholds(gate_probability, m, most)
+        self.classic, self.nis_ties = bool(classic), bool(nis_ties)
+        self.max_nodes, self.deadline = int(max_nodes), deadline
+        self.depth = depth = max(most, 1)
+        self.pobs, self.pcol, self.ploc, self.bobs, self.bcol = np.zeros((5, depth),
+                                                                         dtype=np.int64)
+        self.used = np.zeros(count, dtype=np.bool_)
+        self.free = sizes
+        self.f_nis = np.zeros(k + 1)
+        self.f_c, self.f_stage, self.f_l = np.zeros((3, k + 1), dtype=np.int64)
+        self.istate = np.zeros(ISTATE_SIZE, dtype=np.int64)
+        self.fstate = np.zeros(2)   # best NIS, NIS at the root
+        self.rows = self.order[positions]    # the observation of each candidate entry
+        sums = low_rank_terms(problem, self.rows, self.ccols)
+        self.low_rank = sums is not None
+        if self.low_rank:
+            self.e_a, self.e_g, self.e_m = sums
+            rank = self.e_g.shape[1]
+            self.cum_a = np.zeros(depth + 1)
+            self.cum_g = np.zeros((depth + 1, rank))
+            self.cum_m = np.zeros((depth + 1, rank, rank))
+            self._general(empty=True)
+        else:
+            self.e_a, self.e_g, self.e_m = _NO_LOW_RANK
+            self.cum_a, self.cum_g, self.cum_m = _NO_LOW_RANK
+            self._general()
+
+    def _general(self, empty: bool = False) -> None:
+        """The arrays of the Cholesky-factor search (zero-sized when `empty`); all but xvalid
+        are written before they are read."""
+        problem, m = self.problem, self.problem.observations.dim
+        count, depth = (0, 0) if empty else (len(self.local), self.depth)
+        self.joint = np.zeros((0, 0, m, m)) if empty else joint_covariance(problem, self.local)
+        self.nu, self.s = (np.zeros((0, m)), np.zeros((0, m, m))) if empty else \
+            pair_terms(problem, self.rows, self.ccols)
+        self.lblk = np.empty((depth, depth, m, m))
+        self.dinv = np.empty((depth, m, m))
+        self.w = np.empty((depth, m))
+        self.xc = np.empty((count, depth, m, m))
+        self.xstamp, self.lversion = np.empty((count, depth), dtype=np.int64), \
+            np.empty(depth, dtype=np.int64)
+        self.xvalid = np.zeros(count, dtype=np.int64)
+
+    @property
+    def best_pairs(self) -> list[tuple[int, int]]:
+        """The best set so far: (observation, landmark column) pairs."""
+        count = int(self.istate[BEST_COUNT])
+        return list(zip(self.bobs[:count].tolist(), self.bcol[:count].tolist()))
+
+    @property
+    def best_nis(self) -> float:
+        """Joint NIS of best_pairs (0 when empty)."""
+        return float(self.fstate[0])
+
+    @property
+    def nodes(self) -> int:
+        """Search nodes visited (pairs tried)."""
+        return int(self.istate[NODES])
+
+    @property
+    def truncated(self) -> bool:
+        """True when max_nodes or the deadline cut the search short."""
+        return bool(self.istate[TRUNCATED])
+
+    def start_from(self, pairs: list[tuple[int, int]]) -> float:
+        """Fix `pairs` (observation, landmark column) as the root of the search; returns their
+        joint NIS and records them as the best so far when they pass the joint test."""
+        if pairs and self.low_rank:
+            self.low_rank = False
+            self._general()
+        if pairs:
+            nu, s = pair_terms(self.problem, np.array([i for i, _ in pairs]),
+                               np.array([j for _, j in pairs]))
+            self.nu, self.s = np.concatenate([self.nu, nu]), np.concatenate([self.s, s])
+        m = self.problem.observations.dim
+        schur, residual, block, w_new = np.empty((m, m)), np.empty(m), np.empty((m, m)), \
+            np.empty(m)
+        nis = 0.0
+        for i, j in pairs:
+            a, l = int(self.position_of[j]), int(self.istate[NPAIRS])
+            nis = _extend(len(self.ccols) + l, a, nis, l, self.nu, self.s, self.joint, self.lblk,
+                          self.dinv, self.w, self.xc, self.xstamp, self.xvalid, self.lversion,
+                          self.ploc, schur, residual, block, w_new)
+            if nis < 0.0:
+                raise ValueError('joint covariance of the initial pairs is not positive definite')
+            _push(int(i), int(j), a, l, self.lblk, self.dinv, self.w, self.xc, self.lversion,
+                  self.pobs, self.pcol, self.ploc, self.used, self.free, self.lptr, self.lpos,
+                  block, w_new, self.istate)
+            self.istate[NPAIRS] = l + 1
+        l = int(self.istate[NPAIRS])
+        if nis <= self.thresholds[l]:
+            self.bobs[:l], self.bcol[:l] = self.pobs[:l], self.pcol[:l]
+            self.istate[BEST_COUNT], self.fstate[0] = l, nis
+        return nis
+
+    def run(self, position: int = 0, nis: float = 0.0) -> None:
+        """Search from `position` with the current pairs and joint NIS, reading the clock at
+        the first node and every PAUSE_EVERY nodes when a deadline is set."""
+        state = self.istate
+        state[POS] = state[START] = position
+        state[STATUS] = RUNNING
+        state[NEXT_PAUSE] = 1
+        self.fstate[1] = nis
+        pause = self.deadline is not None
+        while True:
+            search(self.nu, self.s, self.joint, self.order, self.cptr, self.ccols, self.cloc,
+                   self.lptr, self.lpos, self.thresholds, self.classic, self.nis_ties,
+                   self.max_nodes, pause, self.lblk, self.dinv, self.w, self.xc, self.xstamp,
+                   self.xvalid, self.lversion, self.pobs, self.pcol, self.ploc, self.used,
+                   self.free, self.bobs, self.bcol, self.f_nis, self.f_c, self.f_stage, self.f_l,
+                   state, self.fstate, self.low_rank, self.e_a, self.e_g, self.e_m, self.cum_a,
+                   self.cum_g, self.cum_m)
+            if state[STATUS] != PAUSED:
+                return
+            if time.perf_counter() >= self.deadline:
+                state[TRUNCATED] = 1
+                return
+            state[NEXT_PAUSE] = state[NODES] + PAUSE_EVERY
+
+
+_COMPILE_ERROR: Exception | None = None
+_WARM = False
+
+
+def available() -> bool:
+    """True when numba imported and the kernels compiled (compiling or loading them now if
+    needed: see warm_up)."""
+    return jcbb_kernels.numba is not None and _COMPILE_ERROR is None and warm_up()
+
+
+def warm_up() -> bool:
+    """Compile (or load from the on-disk cache) the kernels by searching a tiny problem; False
+    (and the pure-Python search is used) when numba is missing or compilation fails."""
+    global _WARM, _COMPILE_ERROR
+    if _WARM or jcbb_kernels.numba is None or _COMPILE_ERROR is not None:
+        return _WARM
+    try:
+        from .joint_compatibility import _warm_up_problem
+        _warm_up_problem()
+        _WARM = True
+    except Exception as error:  # a numba/llvmlite that cannot compile here
+        _COMPILE_ERROR = error
+    return _WARM
+
+
+def unavailable_reason() -> str:
+    """Why the compiled search is not used ('' when it is)."""
+    error = _COMPILE_ERROR or jcbb_kernels.IMPORT_ERROR
+    return '' if error is None else f'{type(error).__name__}: {error}'
