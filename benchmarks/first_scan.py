@@ -33,11 +33,10 @@ def child(algorithm: str, scans: int, warm: bool, observations: int, landmarks: 
     from data_association_ros.nodes import association_node  # first: one BLAS thread
     import numpy as np
     import rclpy
-    from nav_msgs.msg import Odometry
     from rclpy.parameter import Parameter
     from std_msgs.msg import Header
 
-    from msg_adapters import array_to_cloud
+    from msg_adapters import array_to_cloud, odometry_message
     from node_latency import scene
     if not warm:
         association_node.warm_up = lambda config: {}
@@ -46,19 +45,13 @@ def child(algorithm: str, scans: int, warm: bool, observations: int, landmarks: 
         parameter_overrides=[Parameter('algorithm', value=algorithm)])
     ready_ms = (time.perf_counter() - started) * 1e3
     landmark_points, observation_points, pose = scene(observations, landmarks)
+    pose_covariance = np.diag([0.01, 0.01, 0.003])
     times = []
     for k in range(scans):
         stamp = Header(frame_id='map')
         stamp.stamp.sec = 1000 + k
         node.pipeline.on_landmarks(array_to_cloud(landmark_points, stamp))
-        odometry = Odometry(header=stamp)
-        odometry.pose.pose.position.x, odometry.pose.pose.position.y = pose[:2]
-        odometry.pose.pose.orientation.z = np.sin(pose[2] / 2)
-        odometry.pose.pose.orientation.w = np.cos(pose[2] / 2)
-        covariance = np.zeros((6, 6))
-        covariance[0, 0] = covariance[1, 1] = 0.01
-        covariance[5, 5] = 0.003
-        odometry.pose.covariance = covariance.ravel().tolist()
+        odometry = odometry_message(stamp, pose, pose_covariance)
         node._on_robot_pose(odometry)
         message = array_to_cloud(observation_points, Header(stamp=stamp.stamp,
                                                             frame_id='base_link'))

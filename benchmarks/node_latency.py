@@ -32,11 +32,13 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import PointCloud2  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
 
-from msg_adapters import array_to_cloud  # noqa: E402
+from msg_adapters import array_to_cloud, odometry_message  # noqa: E402
 from msg_adapters.outputs import CORRESPONDENCE_DTYPE  # noqa: E402
 from ros_process import close, wait_until_matched  # noqa: E402
 
 QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+POSE_COVARIANCE = np.diag([0.01, 0.01, 0.003])
+"""The robot pose's covariance (x, y, yaw) sent with every scan."""
 
 
 def echo_main(observations: int, ros_arguments: list[str]) -> None:
@@ -121,14 +123,7 @@ def measure(namespace: str, command: list[str], args, landmark_points, observati
             stamp.stamp.sec = 1000 + k
             stamp.frame_id = 'map'
             landmarks_pub.publish(array_to_cloud(landmark_points, stamp))
-            odometry = Odometry(header=stamp)
-            odometry.pose.pose.position.x, odometry.pose.pose.position.y = pose[:2]
-            odometry.pose.pose.orientation.z = np.sin(pose[2] / 2)
-            odometry.pose.pose.orientation.w = np.cos(pose[2] / 2)
-            covariance = np.zeros((6, 6))
-            covariance[0, 0] = covariance[1, 1] = 0.01
-            covariance[5, 5] = 0.003
-            odometry.pose.covariance = covariance.ravel().tolist()
+            odometry = odometry_message(stamp, pose, POSE_COVARIANCE)
             pose_pub.publish(odometry)
             executor.spin_once(timeout_sec=0.02)  # let the map and pose arrive first
             observation_header = Header(stamp=stamp.stamp, frame_id='base_link')
