@@ -31,6 +31,13 @@ def symmetric_quadratic_form(vectors: np.ndarray, matrices: np.ndarray) -> np.nd
     return total
 
 
+def state_rows(columns: np.ndarray, dim: int) -> np.ndarray:
+    """Rows (3 + L dim,) of the pose and of the landmarks at `columns` (L,) in a joint state
+    [x, y, yaw, landmark 0 (dim), ...]."""
+    first = 3 + dim * np.asarray(columns, dtype=np.intp)
+    return np.concatenate([np.arange(3), (first[:, None] + np.arange(dim)).ravel()])
+
+
 def _inverses(matrices: np.ndarray) -> np.ndarray:
     """Inverses of a stack (..., m, m); NaN for the numerically singular ones (then one matrix
     at a time, a rare path)."""
@@ -100,9 +107,7 @@ class AssociationProblem:
         landmarks = self.landmarks.subset(columns)
         local = None
         if self.state_covariance is not None:
-            d = self.landmarks.dim
-            first = 3 + d * np.asarray(columns, dtype=np.intp)
-            rows = np.concatenate([np.arange(3), (first[:, None] + np.arange(d)).ravel()])
+            rows = state_rows(columns, self.landmarks.dim)
             local = self.state_covariance[np.ix_(rows, rows)]
         problem = AssociationProblem(landmarks, self.observations, self.pose, local,
                                      self.min_innovation_variance)

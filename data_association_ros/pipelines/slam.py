@@ -40,6 +40,7 @@ from msg_adapters import (PointCloudFormatError, cloud_to_array, detect_model,
 from ..core import InvalidInputError, Observations
 from ..core.models import MODELS
 from ..core.parameters import ParameterSpec
+from ..core.problem import state_rows
 from ..core.slam import EkfSlam, OdometryIncrements
 from ..core.validation import check_covariance_matrix, check_positive_semidefinite
 from .association import NS_PER_S, stamp_ns
@@ -310,8 +311,7 @@ class SlamPipeline:
         means = slam.mean[3:].reshape(n, 2)
         near = np.flatnonzero(np.hypot(means[:, 0] - slam.mean[0], means[:, 1] - slam.mean[1])
                               <= self.local_radius())
-        rows = np.concatenate([np.arange(3), (3 + 2 * near[:, None] + np.arange(2)).ravel()])
-        return near, rows
+        return near, state_rows(near, 2)
 
     def _start(self, model: str) -> EkfSlam:
         c = self.config
