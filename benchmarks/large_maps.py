@@ -2,6 +2,7 @@
 covariance of N = 5,000 (issue: cost grows with what the sensor sees, not with the map).
 
     python benchmarks/large_maps.py [--sizes 100,1000,10000,100000] [--ks 30,100]
+    python benchmarks/large_maps.py --crossover     # when building an index pays, new map each scan
 
 Scenes: the N landmarks nearest the robot of a city of 100,000 uniform at one per 16 m^2,
 sigma 0.1 m (so the robot sees the same landmarks on every map size); pose sigma (0.05 m,
@@ -160,6 +161,37 @@ def joint_table(sizes: tuple[int, ...] = (100, 5000), k: int = 30) -> list[dict]
     return rows
 
 
+def crossover_table(sizes=(64, 128, 256, 512, 1024), ks=(2, 5, 10, 30, 100),
+                    algorithms=('mahalanobis_nn', 'jcbb')) -> str:
+    """Median ms of associate() with a new map every call (as a SLAM node's map), unindexed
+    versus indexed (the trees built inside the call), range_bearing: where INDEX_BUILD_MIN_LANDMARKS
+    comes from."""
+    lines = [f'`python benchmarks/large_maps.py --crossover` ({time.strftime("%Y-%m-%d")}, '
+             f'{os.cpu_count()} cores); median ms per associate() call with a new map each call, '
+             'unindexed / index built in the call', '',
+             '| algorithm | N | ' + ' | '.join(f'K = {k}' for k in ks) + ' |',
+             '|---|---|' + '---|' * len(ks)]
+    for algorithm in algorithms:
+        for n in sizes:
+            landmarks, true = landmark_map(n)
+            cells = []
+            for k in ks:
+                if k > n:
+                    cells.append('')
+                    continue
+                observations, pose = scan(true, k, 'range_bearing')
+                arrays = (landmarks.ids, landmarks.means, landmarks.covariances)
+                budget = {'max_nodes': JCBB_NODES_K100} if algorithm == 'jcbb' else {}
+                calls = {indexed: (lambda i=indexed, o=observations, p=pose: associate(
+                    Landmarks(*arrays), o, algorithm, pose=p, spatial_index=i, **budget))
+                    for indexed in (False, True)}
+                times = interleaved_ms(calls, rounds=5, block=3)
+                cells.append(f'{times[False]:.2f} / {times[True]:.2f}')
+            lines.append(f'| {algorithm} | {n} | ' + ' | '.join(cells) + ' |')
+            print(lines[-1], flush=True)
+    return '\n'.join(lines)
+
+
 def markdown(rows: list[dict], joint: list[dict], sizes: list[int]) -> str:
     first, last = 1000 if 1000 in sizes else sizes[0], sizes[-1]
     big_unindexed = max(n for n in sizes if n <= 10_000)
@@ -200,7 +232,12 @@ def main(argv=None) -> None:
                         '%(default)s)')
     parser.add_argument('--no-joint', action='store_true',
                         help='skip the joint-covariance table (it builds a 10003^2 matrix)')
+    parser.add_argument('--crossover', action='store_true',
+                        help='only the table of indexed versus unindexed with a new map per scan')
     args = parser.parse_args(argv)
+    if args.crossover:
+        print(crossover_table())
+        return
     sizes = [int(s) for s in args.sizes.split(',')]
     rows = size_table(sizes, [int(k) for k in args.ks.split(',')])
     joint = [] if args.no_joint else joint_table()

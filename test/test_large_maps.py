@@ -19,6 +19,7 @@ from data_association_ros.bag.reader import BagReader
 from data_association_ros.bag.rosbag2_metadata import read_custom_data
 from data_association_ros.bag.street_grid import poles, street_grid
 from data_association_ros.core.models import MODELS
+from data_association_ros.core.spatial_index import has_index
 from data_association_ros.nodes.association_node import AssociationNode
 from data_association_ros.pipelines.slam import SLAM_PARAMETERS, SlamPipeline
 from msg_adapters import cloud_to_array, state_covariance_cloud, state_covariance_from_cloud
@@ -78,6 +79,9 @@ def test_prior_map_published_before_the_node_starts_serves_every_later_scan():
             np.testing.assert_array_equal(answer['landmark'], ids[seen])
         assert node.statistics.skipped['no_landmarks'] == 0
         assert len(node.pipeline.landmark_history) == 1
+        # indexed once, on arrival (not in the first scan's latency), and used for every scan
+        prior = node.pipeline.landmark_history.latest_not_after(0, 2 ** 63)[0].landmarks
+        assert has_index(prior)
     finally:
         graph.close()
 

@@ -11,8 +11,11 @@ from data_association_ros import InvalidInputError, Landmarks, Observations, Rob
 from data_association_ros.core.gating import chi2_threshold, likelihood_gate, nis_gate
 from data_association_ros.core.models import MODELS
 from data_association_ros.core.problem import AssociationProblem
-from data_association_ros.core.spatial_index import (LandmarkIndex, landmark_index,
-                                                     landmark_spreads, search_radii)
+from data_association_ros.core.spatial_index import (INDEX_BUILD_MIN_LANDMARKS,
+                                                     INDEX_MIN_LANDMARKS, LandmarkIndex,
+                                                     has_index, landmark_index,
+                                                     landmark_spreads, search_radii,
+                                                     wants_index)
 from data_association_ros.core.validation import check_covariance_matrix
 
 GATED = ('euclidean_nn', 'mahalanobis_nn', 'maximum_likelihood', 'gnn', 'jcbb')
@@ -183,6 +186,27 @@ def test_index_is_built_once_per_map_and_per_joint_covariance():
     # a map is immutable, so its index cannot go stale
     with pytest.raises(ValueError):
         landmarks.means[0, 0] = 1.0
+
+
+def test_automatic_choice_builds_for_large_maps_and_reuses_a_built_index():
+    """spatial_index=None: a new map of fewer than INDEX_BUILD_MIN_LANDMARKS is not indexed (one
+    scan would not pay for the trees), a larger one is; a map whose index exists is indexed from
+    INDEX_MIN_LANDMARKS (a prior map serving every scan); the answers never change."""
+    rng = np.random.default_rng(11)
+    for n, prebuilt, indexed in ((INDEX_BUILD_MIN_LANDMARKS - 1, False, False),
+                                 (INDEX_BUILD_MIN_LANDMARKS, False, True),
+                                 (INDEX_MIN_LANDMARKS, True, True),
+                                 (INDEX_MIN_LANDMARKS - 1, True, False)):
+        landmarks, observations, pose, _ = random_problem(rng, 'range_bearing', n, 8, 0.1, 0.02)
+        if prebuilt:
+            landmark_index(landmarks)
+        assert wants_index(landmarks) == indexed, (n, prebuilt)
+        expected = associate(landmarks.subset(np.arange(n)), observations, 'jcbb', pose=pose,
+                             spatial_index=False)
+        answer = associate(landmarks, observations, 'jcbb', pose=pose)
+        np.testing.assert_array_equal(answer.assignment, expected.assignment)
+        np.testing.assert_array_equal(answer.nis, expected.nis)
+        assert has_index(landmarks) == (indexed or prebuilt), (n, prebuilt)
 
 
 def test_a_few_uncertain_landmarks_do_not_widen_the_search_for_the_rest():

@@ -7,7 +7,7 @@ from .associators import REGISTRY
 from .errors import InvalidInputError
 from .parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE, resolve
 from .problem import AssociationProblem
-from .spatial_index import INDEX_MIN_LANDMARKS, landmark_index, search_radii
+from .spatial_index import landmark_index, search_radii, wants_index
 from .types import Association, Landmarks, Observations, RobotPose
 
 
@@ -28,9 +28,10 @@ def associate(landmarks: Landmarks, observations: Observations, algorithm: str =
     checked positive semi-definite); the whole matrix is checked finite, symmetric and with a
     non-negative diagonal unless it came from check_covariance_matrix.
     spatial_index: only the landmarks that can pass some observation's gate take part (exact,
-    see core/spatial_index.py; the answer is the same); None: for maps of at least
-    INDEX_MIN_LANDMARKS, True: always, False: never.  The index is built at the first call
-    and kept with the `landmarks` object for the next calls.
+    see core/spatial_index.py; the answer is the same); None: spatial_index.wants_index (maps of
+    at least INDEX_BUILD_MIN_LANDMARKS, or INDEX_MIN_LANDMARKS when their index exists already),
+    True: always, False: never.  The index is built at the first call and kept with the
+    `landmarks` object for the next calls.
     Returns an Association whose assignment (K,) holds landmark ids, NEW or UNASSOCIATED.
     Raises InvalidInputError on bad input, unknown algorithm or bad parameters.
     """
@@ -63,7 +64,8 @@ def _local_problem(problem: AssociationProblem, associator, parameters: dict,
     """The problem over the landmarks the associator's gate can accept (all of them without
     an index)."""
     n = len(problem.landmarks)
-    wanted = n >= INDEX_MIN_LANDMARKS if spatial_index is None else bool(spatial_index)
+    wanted = wants_index(problem.landmarks, problem.state_covariance) if spatial_index is None \
+        else bool(spatial_index)
     if associator.gate is None or not wanted or n == 0 or len(problem.observations) == 0:
         problem.check_definite()
         return problem

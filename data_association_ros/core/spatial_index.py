@@ -42,8 +42,13 @@ from .gating import Gate
 from .types import Landmarks, Observations
 
 INDEX_MIN_LANDMARKS = 64
-"""associate(spatial_index=None) indexes maps of at least this many landmarks; below it one
-vectorised pass over all pairs is as fast."""
+"""associate(spatial_index=None) uses an index already built for maps of at least this many
+landmarks (a prior map, a map that serves several scans); below it one vectorised pass over all
+pairs is as fast."""
+INDEX_BUILD_MIN_LANDMARKS = 512
+"""associate(spatial_index=None) builds an index for maps of at least this many landmarks:
+below it, building the trees for one scan costs more than the pairs it saves (measured with a
+new map per scan, 2-100 range-bearing observations: docs/large_maps.md)."""
 MAX_SPREAD_CLASSES = 12
 """At most this many k-d trees per map (spread classes are merged to powers of 4, 16, ...)."""
 _RELATIVE_MARGIN = 1e-6
@@ -117,6 +122,27 @@ class LandmarkIndex:
         return np.unique(np.concatenate(found))
 
 
+def has_index(landmarks: Landmarks, state_covariance: Optional[np.ndarray] = None) -> bool:
+    """True when landmark_index(landmarks, state_covariance) is already built (no cost)."""
+    cached = landmarks.__dict__.get(_CACHE_ATTRIBUTE)
+    return cached is not None and _fits(cached[0], state_covariance)
+
+
+def wants_index(landmarks: Landmarks, state_covariance: Optional[np.ndarray] = None) -> bool:
+    """associate(spatial_index=None)'s choice: index maps of INDEX_BUILD_MIN_LANDMARKS or more,
+    and maps of INDEX_MIN_LANDMARKS or more whose index is built already."""
+    n = len(landmarks)
+    return n >= INDEX_BUILD_MIN_LANDMARKS or (
+        n >= INDEX_MIN_LANDMARKS and has_index(landmarks, state_covariance))
+
+
+def _fits(reference, state_covariance: Optional[np.ndarray]) -> bool:
+    """An index built with the joint covariance `reference` (a weak reference, None: the
+    marginals) serves `state_covariance`."""
+    return (state_covariance is None and reference is None) or (
+        reference is not None and reference() is state_covariance)
+
+
 def landmark_index(landmarks: Landmarks, state_covariance: Optional[np.ndarray] = None
                    ) -> LandmarkIndex:
     """The index of `landmarks` with the spreads of `state_covariance` (None: the marginal
@@ -124,11 +150,8 @@ def landmark_index(landmarks: Landmarks, state_covariance: Optional[np.ndarray] 
     the next scans; a joint covariance is remembered by identity (it is read-only once
     checked), a new one rebuilds the index."""
     cached = landmarks.__dict__.get(_CACHE_ATTRIBUTE)
-    if cached is not None:
-        reference, index = cached
-        if (state_covariance is None and reference is None) or (
-                reference is not None and reference() is state_covariance):
-            return index
+    if cached is not None and _fits(cached[0], state_covariance):
+        return cached[1]
     index = LandmarkIndex(landmarks.means, landmark_spreads(landmarks, state_covariance))
     keep = state_covariance is None or not state_covariance.flags.writeable
     if keep:

@@ -6,6 +6,7 @@ choices, or in conflict with another) stops the node: one line naming the parame
 and the valid values, exit code 1.  `--help` prints the node's usage without starting ROS."""
 from __future__ import annotations
 
+import gc
 import signal
 import sys
 from typing import Any, Callable, Optional, Sequence
@@ -146,6 +147,14 @@ def _interrupt_once() -> None:
     signal.signal(signal.SIGINT, handler)
 
 
+def freeze_start_up_objects() -> None:
+    """Move everything allocated so far (modules, numba, scipy, the node: about 160,000 objects)
+    out of the garbage collector's reach (gc.freeze): a full collection during operation then
+    scans only what the node allocated since, instead of pausing the node for 50-150 ms."""
+    gc.collect()
+    gc.freeze()
+
+
 def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
          usage: str = '') -> None:
     """Entry point of an executable: `usage` for --help/-h (ROS not started); else init, spin
@@ -163,6 +172,7 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
         rclpy.shutdown()
         sys.exit(str(error))
     try:
+        freeze_start_up_objects()
         rclpy.spin(node)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
         pass

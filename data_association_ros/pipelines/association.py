@@ -26,7 +26,7 @@ from ..core.candidates import CandidateManager, CandidateUpdate
 from ..core.initialisation import observations_in_map
 from ..core.models import MODELS
 from ..core.pose_recovery import RECOVERED, PoseRecovery, associate_with_pose_recovery
-from ..core.spatial_index import INDEX_MIN_LANDMARKS
+from ..core.spatial_index import INDEX_MIN_LANDMARKS, landmark_index
 from .multi_hypothesis_stage import MultiHypothesisStage
 from .parameters import MULTI_HYPOTHESIS, algorithm_arguments
 from .stamped_buffer import StampedBuffer
@@ -124,6 +124,8 @@ class AssociationPipeline:
         if self.config['prior_map']:    # one fixed map: it serves every scan, whatever its age
             self.landmark_history = StampedBuffer(1)
             stamp = -2 ** 62
+            if len(landmarks) >= INDEX_MIN_LANDMARKS:
+                landmark_index(landmarks)   # indexed now, not in the first scan's latency
         self.landmark_history.add(stamp, StampedLandmarks(landmarks, header.frame_id,
                                                           stamp_ns(header)))
 
@@ -254,8 +256,8 @@ class AssociationPipeline:
                 return None
         observations = observations_from_points(points, model, config['observation_noise'])
         landmarks = item.landmarks
-        if len(observations) * len(landmarks) > config['max_pairs'] and \
-                len(landmarks) < INDEX_MIN_LANDMARKS:
+        too_many_pairs = len(observations) * len(landmarks) > config['max_pairs']
+        if too_many_pairs and len(landmarks) < INDEX_MIN_LANDMARKS:
             self._reject(self.statistics.skipped, 'too_large',
                          f'observation message skipped: {len(observations)} observations x '
                          f'{len(landmarks)} landmarks exceeds max_pairs {config["max_pairs"]}')
@@ -264,7 +266,8 @@ class AssociationPipeline:
         result = associate_with_pose_recovery(
             landmarks, observations, config['algorithm'], pose, state_covariance,
             PoseRecovery(config['recovery_position_std'], config['recovery_yaw_std'],
-                         config['recovery_min_new']), **algorithm_arguments(config))
+                         config['recovery_min_new']),
+            spatial_index=True if too_many_pairs else None, **algorithm_arguments(config))
         positions, covariances = observations_in_map(observations, pose)
         if pose is not None and not config['candidate_pose_uncertainty']:
             # the observation noise alone: a SLAM's pose error is common to consecutive scans

@@ -285,13 +285,12 @@ class SlamPipeline:
             np.abs(observations.values[:, 0]) if model == 'range_bearing'
             else np.linalg.norm(observations.values, axis=1), initial=0.0)))
         local, rows = self._local_map()
-        landmarks = self.slam.landmarks()
+        ids, means, covariances = self.slam.marginals(local)
         out: Outputs = [
-            ('landmarks', point_map_cloud(header, landmarks.ids[local], landmarks.means[local],
-                                          landmarks.covariances[local])),
+            ('landmarks', point_map_cloud(header, ids, means, covariances)),
             ('robot_pose', odometry_message(header, *self._pose())),
             ('state_covariance', state_covariance_cloud(
-                header, landmarks.ids[local], self.slam.covariance[np.ix_(rows, rows)])),
+                header, ids, self.slam.covariance[np.ix_(rows, rows)])),
             ('observations', msg)]
         answer = self.early_answers.pop(stamp, None)
         if answer is not None:
@@ -451,15 +450,14 @@ class SlamPipeline:
 
     def _estimate_messages(self) -> Outputs:
         header = Header(stamp=self.current.header.stamp, frame_id=MAP_FRAME)
-        landmarks = self.slam.landmarks()
-        origins = np.array([self.origins.get(int(i), (-1, -1)) for i in landmarks.ids],
+        ids, means, covariances = self.slam.marginals()
+        origins = np.array([self.origins.get(int(i), (-1, -1)) for i in ids],
                            dtype=np.int64).reshape(-1, 2)
         sec, nanosec = np.divmod(np.maximum(origins[:, 0], 0), NS_PER_S)
         extra = {'origin_stamp_sec': sec.astype('<i4'),
                  'origin_stamp_nanosec': nanosec.astype('<u4'),
                  'origin_observation': origins[:, 1].astype('<i4')}
-        return [('slam_map', point_map_cloud(header, landmarks.ids, landmarks.means,
-                                             landmarks.covariances, extra)),
+        return [('slam_map', point_map_cloud(header, ids, means, covariances, extra)),
                 ('slam_pose', odometry_message(header, *self._pose()))]
 
     # -- bookkeeping --------------------------------------------------------------------
