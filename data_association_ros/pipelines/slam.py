@@ -42,6 +42,7 @@ from ..core.models import MODELS
 from ..core.parameters import ParameterSpec
 from ..core.problem import state_rows
 from ..core.slam import EkfSlam, OdometryIncrements
+from ..core.slam.local_map import local_map_columns
 from ..core.validation import check_covariance_matrix, check_positive_semidefinite
 from .association import NS_PER_S, stamp_ns
 from .parameters import BY_NAME, NodeParameter
@@ -84,8 +85,9 @@ SLAM_PARAMETERS = (
                   spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
     NodeParameter('local_map_radius', 0.0, 'landmarks and state_covariance carry the local map: '
                   'the landmarks within this distance of the robot [m] and the covariance block '
-                  'of [pose, those landmarks] (ids stay global); 0: automatic, 1.5 x the largest '
-                  'observation distance seen so far + 5 m',
+                  'of [pose, those landmarks] (ids stay global); 0: automatic, the landmarks the '
+                  'scan can observe (within its farthest observation + 5 m + 6.4 standard '
+                  'deviations of the pose, landmark and observation errors: docs/large_maps.md)',
                   spec=ParameterSpec('local_map_radius', 0.0, '', low=0.0)),
     NodeParameter('input_qos', 'reliable', 'QoS of the odometry and sensor_observations '
                   'subscriptions: reliable or sensor_data (best effort, as many drivers '
@@ -99,8 +101,6 @@ MAX_ODOMETRY_QUEUE = 10_000
 (a dead sensor does not grow memory)."""
 RESTART_AFTER_NS = NS_PER_S
 """A scan this much older than the last one restarts the filter (a bag played again)."""
-LOCAL_MAP_MARGIN = 5.0
-"""Added to 1.5 x the sensor reach for the automatic local map radius [m]."""
 MAX_MAGNITUDE = 1e6
 """Largest |value| accepted in positions [m], ranges [m] and (co)variances: beyond it a value
 is a fault, and fusing it would overflow the filter's state."""
@@ -165,7 +165,6 @@ class SlamPipeline:
         self.origins: dict[int, tuple[int, int]] = {}   # landmark id -> (stamp, observation)
         self.next_id = 0
         self.added_for: set[int] = set()   # scan stamps whose new landmarks were added
-        self.sensor_reach = 0.0    # largest observation distance seen [m] (local map radius)
         self._throttle = WarningThrottle()
 
     # -- inputs -------------------------------------------------------------------------
@@ -281,10 +280,8 @@ class SlamPipeline:
             del self.early_answers[old]
             self.statistics.dropped['answer_without_scan'] += 1
         header = Header(stamp=msg.header.stamp, frame_id=MAP_FRAME)
-        self.sensor_reach = max(self.sensor_reach, float(np.max(
-            np.abs(observations.values[:, 0]) if model == 'range_bearing'
-            else np.linalg.norm(observations.values, axis=1), initial=0.0)))
-        local, rows = self._local_map()
+        local = self._local_map(observations)
+        rows = state_rows(local, 2)
         ids, means, covariances = self.slam.marginals(local)
         out: Outputs = [
             ('landmarks', point_map_cloud(header, ids, means, covariances)),
@@ -297,20 +294,14 @@ class SlamPipeline:
             out += self._apply_answer(answer)
         return out
 
-    def local_radius(self) -> float:
-        """local_map_radius, or 1.5 x the largest observation distance seen + 5 m [m]."""
-        radius = self.config['local_map_radius']
-        return radius if radius > 0 else 1.5 * self.sensor_reach + LOCAL_MAP_MARGIN
-
-    def _local_map(self) -> tuple[np.ndarray, np.ndarray]:
-        """(columns of the landmarks within local_radius of the robot (L,), their rows and the
-        pose's in the state (3 + 2 L,))."""
+    def _local_map(self, observations: Observations) -> np.ndarray:
+        """Columns (L,) of the landmarks in this scan's local map (core/slam/local_map.py:
+        within local_map_radius of the robot, or those the scan can observe when it is 0)."""
         slam = self.slam
-        n = len(slam.ids)
-        means = slam.mean[3:].reshape(n, 2)
-        near = np.flatnonzero(np.hypot(means[:, 0] - slam.mean[0], means[:, 1] - slam.mean[1])
-                              <= self.local_radius())
-        return near, state_rows(near, 2)
+        _, means, covariances = slam.marginals()
+        return local_map_columns(slam.model.name, slam.mean[:3], slam.covariance[:3, :3], means,
+                                 covariances, observations.values, observations.covariances,
+                                 self.config['local_map_radius'])
 
     def _start(self, model: str) -> EkfSlam:
         c = self.config
