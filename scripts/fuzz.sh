@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The long robustness profile: 10x the generated hostile messages of the test suite's CI
-# profile (about 110,000 through the node's pipeline, 250 batches on a live node).
+# The long robustness profile: 20x the generated hostile messages of the test suite's CI
+# profile (about 120,000 through the node's pipeline, 500 batches on a live node).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup_env.sh"
 cd "$repo"

@@ -18,8 +18,8 @@ from std_msgs.msg import Header
 
 from msg_adapters import array_to_cloud, state_covariance_cloud
 
-SCALE = {'ci': 1, 'long': 10}[os.environ.get('DA_FUZZ_PROFILE', 'ci')]
-"""Examples per test: the CI profile x 1, DA_FUZZ_PROFILE=long x 10 (scripts/fuzz.sh)."""
+SCALE = {'ci': 1, 'long': 20}[os.environ.get('DA_FUZZ_PROFILE', 'ci')]
+"""Examples per test: the CI profile x 1, DA_FUZZ_PROFILE=long x 20 (scripts/fuzz.sh)."""
 FIELD_NAMES = ('x', 'y', 'z', 'id', 'range', 'bearing', 'width', 'height', 'cov_xx', 'cov_xy',
                'cov_yy', 'var_range', 'var_bearing', 'score', 'intensity')
 FRAMES = ('map', 'base_link', 'camera', '', 'never_matches')
