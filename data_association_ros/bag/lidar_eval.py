@@ -29,13 +29,19 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ..core.errors import InvalidInputError
-from ..core.lidar import LidarObjectTracker, TrackerConfig
+from ..core.lidar import TrackerConfig
+from ..pipelines.lidar_tracking import LidarTracking
 from .reader import BagError, BagReader
 
 BAG = Path(__file__).resolve().parents[2] / 'bags' / 'lidar_two_cars'
-SCAN, OBJECTS = '/scan', '/ground_truth/objects'
+SCAN, OBJECTS, ODOMETRY = '/scan', '/ground_truth/objects', '/odometry'
 PAIR_DISTANCE = 2.5
-"""Largest centre distance [m] of a (track, true object) pair."""
+"""Largest centre distance [m] of a (track, true object) pair when the truth has no length."""
+PAIR_SHARE = 0.55
+"""... else this share of the object's length (2.5 m for a 4.5 m car, 0.3 m for an F1Tenth
+car)."""
+MIN_VISIBLE_BEAMS = 5
+"""An object is visible in a scan when at least this many beams hit it (truth `visible`)."""
 ROWS = {
     'default': ('jcbb_points, cartesian jNIS, point_to_line', {}),
     'nearest': ('nearest (cut-off 0.3 m), point_to_line', {'fine': 'nearest'}),
@@ -55,11 +61,16 @@ ROWS = {
 
 @dataclass
 class Scan:
-    """One scan: time [s], points (K, 2), truth (structured: id, x, y, yaw, vx, vy, ...)."""
+    """One scan: time [s] (its header stamp), points (K, 2) in the sensor frame, truth
+    (structured: id, x, y, yaw, vx, vy, ... [, visible]), time between beams [s], the odometry
+    (time [s], pose (3,), frame) that arrived since the previous scan, the scan's frame."""
 
     time: float
     points: np.ndarray
     truth: np.ndarray
+    time_increment: float = 0.0
+    odometry: list = field(default_factory=list)
+    frame: str = 'laser'
 
 
 @dataclass
@@ -72,7 +83,7 @@ class Estimate:
 
 @dataclass
 class ObjectScore:
-    """Scores of one true object."""
+    """Scores of one true object over the scans where it is visible."""
 
     position_rmse: float
     heading_rmse_deg: float
@@ -80,6 +91,7 @@ class ObjectScore:
     coverage: float
     id_switches: int
     track_ids: list = field(default_factory=list)
+    scans: int = 0
 
 
 def scan_points(ranges: np.ndarray, angle_min: float, angle_increment: float) -> np.ndarray:
@@ -90,62 +102,111 @@ def scan_points(ranges: np.ndarray, angle_min: float, angle_increment: float) ->
         return np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
 
 
-def read_scans(bag: Path) -> list[Scan]:
-    """The bag's scans with the truth of the same log time."""
-    from msg_adapters import cloud_to_array
-    reader = BagReader(bag)
-    reader.require([SCAN, OBJECTS])
+def stamp_seconds(msg) -> float:
+    """A message's header stamp [s]."""
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def stamp_ns(msg) -> int:
+    """A message's header stamp [ns]."""
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+def scans_from_messages(messages: Iterable[tuple[str, object, int]]) -> list[Scan]:
+    """Scans with the truth of the same header stamp (scans without one are left out), and the
+    odometry between them, from (topic, message, log time ns) in log-time order."""
+    from msg_adapters import cloud_to_array, pose_from_odometry
     scans: dict[int, Scan] = {}
     truths: dict[int, np.ndarray] = {}
-    for message in reader.messages([SCAN, OBJECTS]):
-        if message.topic == SCAN:
-            msg = message.msg
-            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            scans[message.log_time_ns] = Scan(stamp, scan_points(
-                msg.ranges, msg.angle_min, msg.angle_increment), None)
+    odometry: list = []
+    for topic, msg, _ in messages:
+        if topic == SCAN:
+            from msg_adapters.lidar import points_from_scan
+            scans[stamp_ns(msg)] = Scan(stamp_seconds(msg), points_from_scan(msg), None,
+                                        float(msg.time_increment), odometry,
+                                        msg.header.frame_id)
+            odometry = []
+        elif topic == OBJECTS:
+            truths[stamp_ns(msg)] = cloud_to_array(msg)
+        elif topic == ODOMETRY:
+            odometry.append((stamp_seconds(msg), pose_from_odometry(msg).mean,
+                             msg.header.frame_id))
+    result, carried = [], []
+    for stamp in sorted(scans):
+        scan = scans[stamp]
+        scan.odometry = carried + scan.odometry
+        if stamp in truths:
+            scan.truth, carried = truths[stamp], []
+            result.append(scan)
         else:
-            truths[message.log_time_ns] = cloud_to_array(message.msg)
-    result = []
-    for log_time in sorted(scans):
-        if log_time in truths:
-            scans[log_time].truth = truths[log_time]
-            result.append(scans[log_time])
+            carried = scan.odometry
     return result
 
 
+def read_scans(bag: Path) -> list[Scan]:
+    """The bag's scans with the truth of the same header stamp (scans_from_messages)."""
+    reader = BagReader(bag)
+    reader.require([SCAN, OBJECTS])
+    topics = [SCAN, OBJECTS] + ([ODOMETRY] if ODOMETRY in reader.topics else [])
+    return scans_from_messages((m.topic, m.msg, m.log_time_ns)
+                               for m in reader.messages(topics))
+
+
 def run_offline(scans: Sequence[Scan], config: TrackerConfig) -> tuple[list[Estimate], np.ndarray]:
-    """(reported tracks per scan, time per scan [ms]) of the core tracker."""
-    tracker = LidarObjectTracker(config)
+    """(reported tracks per scan, time per scan [ms]) of the core tracker with the scans'
+    odometry (pipelines.lidar_tracking); the time covers the tracking step only."""
+    tracking = LidarTracking(config)
     estimates, elapsed = [], []
     for scan in scans:
+        for time_s, pose, frame in scan.odometry:
+            tracking.add_odometry(time_s, pose, frame)
         started = time.perf_counter()
-        reported = tracker.step(scan.points, scan.time)
+        reported = tracking.step(scan.points, scan.time, scan.time_increment, scan.frame)
         elapsed.append((time.perf_counter() - started) * 1000.0)
         estimates.append(Estimate(np.array([t.id for t in reported], dtype=int),
                                   np.array([t.filter.x for t in reported]).reshape(-1, 6)))
     return estimates, np.array(elapsed)
 
 
+def pair_distances(truth: np.ndarray) -> np.ndarray:
+    """Largest centre distance [m] of a pair per true object: PAIR_DISTANCE, or PAIR_SHARE of
+    its length when the truth gives lengths (small objects)."""
+    if 'length' in (truth.dtype.names or ()):
+        return PAIR_SHARE * truth['length'].astype(float)
+    return np.full(len(truth), PAIR_DISTANCE)
+
+
+def visible(truth: np.ndarray) -> np.ndarray:
+    """(n,) bool: the objects seen by at least MIN_VISIBLE_BEAMS beams of the scan (all of them
+    when the truth does not say)."""
+    if 'visible' in (truth.dtype.names or ()):
+        return truth['visible'] >= MIN_VISIBLE_BEAMS
+    return np.ones(len(truth), dtype=bool)
+
+
 def score(scans: Sequence[Scan], estimates: Sequence[Estimate],
           first: int = 0) -> dict[int, ObjectScore]:
-    """Per true object id, its ObjectScore over scans[first:] (module docstring)."""
+    """Per true object id, its ObjectScore over the scans of scans[first:] where it is visible
+    (module docstring)."""
     errors: dict[int, list] = {}
     ids: dict[int, list] = {}
-    counted = 0
+    counted: dict[int, int] = {}
     for scan, estimate in list(zip(scans, estimates))[first:]:
-        counted += 1
         truth = scan.truth
-        for object_id in truth['id']:
+        seen = visible(truth)
+        for object_id in truth['id'][seen]:
             errors.setdefault(int(object_id), [])
             ids.setdefault(int(object_id), [])
+            counted[int(object_id)] = counted.get(int(object_id), 0) + 1
         if not len(estimate.ids) or not len(truth):
             continue
         true_xy = np.column_stack([truth['x'], truth['y']]).astype(float)
         difference = true_xy[:, None, :] - estimate.states[None, :, :2]
         distance = np.hypot(difference[..., 0], difference[..., 1])
-        rows, columns = linear_sum_assignment(np.where(distance <= PAIR_DISTANCE, distance, 1e6))
+        limit = pair_distances(truth)[:, None]
+        rows, columns = linear_sum_assignment(np.where(distance <= limit, distance, 1e6))
         for row, column in zip(rows, columns):
-            if distance[row, column] > PAIR_DISTANCE:
+            if distance[row, column] > limit[row, 0] or not seen[row]:
                 continue
             state, true = estimate.states[column], truth[row]
             heading = np.angle(np.exp(1j * (state[2] - float(true['yaw']))))
@@ -159,8 +220,8 @@ def score(scans: Sequence[Scan], estimates: Sequence[Estimate],
         track_ids = ids[object_id]
         switches = int(sum(a != b for a, b in zip(track_ids, track_ids[1:])))
         result[object_id] = ObjectScore(float(rmse[0]), float(np.degrees(rmse[1])),
-                                        float(rmse[2]), len(array) / max(counted, 1), switches,
-                                        sorted(set(track_ids)))
+                                        float(rmse[2]), len(array) / max(counted[object_id], 1),
+                                        switches, sorted(set(track_ids)), counted[object_id])
     return result
 
 

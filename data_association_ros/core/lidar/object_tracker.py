@@ -84,11 +84,12 @@ class ObjectTrack:
         x = self.filter.x if state is None else state
         return corners(x[:2], x[2], self.length, self.width)
 
-    def boundary(self, spacing: float, most: int) -> np.ndarray:
-        """Boundary points (n, 2): the faces visible from the sensor, every <= spacing [m], the
-        spacing widened so that there are at most about `most`."""
+    def boundary(self, spacing: float, most: int,
+                 sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
+        """Boundary points (n, 2): the faces visible from the sensor (2,), every <= spacing [m],
+        the spacing widened so that there are at most about `most`."""
         perimeter = 2 * (self.length + self.width)
-        return sample_visible(self.corners(), max(spacing, perimeter / 2 / most))
+        return sample_visible(self.corners(), max(spacing, perimeter / 2 / most), sensor)
 
     def anchor_world(self) -> np.ndarray:
         """The predicted cluster centroid (2,)."""
@@ -103,6 +104,7 @@ class LidarObjectTracker:
         self.config = config or TrackerConfig()
         self.tracks: list[ObjectTrack] = []
         self.time: Optional[float] = None
+        self.sensor = np.zeros(2)
         self._next_id = 1
 
     def configure(self, config: TrackerConfig) -> None:
@@ -117,19 +119,25 @@ class LidarObjectTracker:
         """Tracks updated on at least min_hits scans."""
         return [t for t in self.tracks if t.hits >= self.config.min_hits]
 
-    def step(self, points: np.ndarray, time: float) -> list[ObjectTrack]:
-        """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return).
-        Raises InvalidInputError when time is not after the previous scan's.  Returns the
-        reported tracks."""
+    def step(self, points: np.ndarray, time: float, sensor: Optional[np.ndarray] = None,
+             offsets: Optional[np.ndarray] = None) -> list[ObjectTrack]:
+        """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
+        tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
+        [s] after `time` (default 0; an object's points are moved back by its predicted
+        velocity times their offset).  Raises InvalidInputError when time is not after the
+        previous scan's.  Returns the reported tracks."""
         if not np.isfinite(time) or (self.time is not None and time <= self.time):
             raise InvalidInputError(f'time: {time!r} is not after the previous scan '
                                     f'({self.time!r})')
         config = self.config
         points = np.asarray(points, dtype=float).reshape(-1, 2)
+        self.sensor = np.zeros(2) if sensor is None else np.asarray(sensor, float).reshape(2)
+        self._offsets = np.zeros(len(points)) if offsets is None else \
+            np.asarray(offsets, float).reshape(len(points))
         with np.errstate(invalid='ignore'):
             points = np.where(np.abs(points) <= MAX_COORDINATE, points, np.nan)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
-        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump)
+        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
         count = len(ends)
         dt = None if self.time is None else time - self.time
         before, self.time = self.time, time
@@ -242,17 +250,22 @@ class LidarObjectTracker:
         or the measurement outside the filter's gate); InvalidInputError or LinAlgError when
         the pairs are degenerate."""
         config = self.config
-        scan = points[np.isin(labels, clusters)]
-        sample = scan[evenly(len(scan), config.max_match_points)]
         x = track.filter.x
-        boundary = track.boundary(config.boundary_spacing, config.max_boundary_points)
+        member = np.isin(labels, clusters)
+        if np.any(self._offsets[member]):  # the object moved while the beam turned
+            points = points.copy()
+            points[member] -= self._offsets[member, None] * x[3:5]
+        scan = points[member]
+        sample = scan[evenly(len(scan), config.max_match_points)]
+        boundary = track.boundary(config.boundary_spacing, config.max_boundary_points,
+                                  self.sensor)
         low, high = sample.min(axis=0) - 1.0, sample.max(axis=0) + 1.0
         near = np.all((boundary >= low) & (boundary <= high), axis=1)
         boundary = boundary[near]
         joint = boundary_covariance(boundary, x[:2], track.filter.p[:3, :3], config.point_sigma)
         pairs = match(sample, boundary, joint, config.fine, config.jnis, config.point_sigma,
                       config.bearing_sigma, config.nearest_cutoff, config.gate_probability,
-                      config.time_budget_ms, config.max_nodes)
+                      config.time_budget_ms, config.max_nodes, self.sensor)
         if len(pairs) < config.min_pairs:
             return False
         correction = self._correction(track, sample, boundary, pairs, points, clusters, ends,
@@ -289,7 +302,7 @@ class LidarObjectTracker:
             return point_to_line_correction(
                 sample, boundary, pairs, track.corners(), self._edges(points, clusters, ends,
                                                                        edges),
-                x[:2], track.filter.p[:3, :3], config.point_sigma)
+                x[:2], track.filter.p[:3, :3], config.point_sigma, sensor=self.sensor)
         return rigid_correction(sample, boundary, pairs, x[:2], config.transform == 'ransac',
                                 config.ransac_threshold)
 
@@ -299,14 +312,16 @@ class LidarObjectTracker:
         r = rotation(x[2])
         body = (matched - x[:2]) @ r
         shift, track.length, track.width = contain(body, track.length, track.width,
-                                                   -x[:2] @ r, 2 * self.config.point_sigma)
+                                                   (self.sensor - x[:2]) @ r,
+                                                   2 * self.config.point_sigma)
         x[:2] = x[:2] + r @ shift
         track.anchor = (scan.mean(axis=0) - x[:2]) @ r
 
     def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float) -> None:
         config = self.config
         centre, yaw, length, width = fit_rectangle(cluster, config.prior_length,
-                                                   config.prior_width, occluded=occluded)
+                                                   config.prior_width, sensor=self.sensor,
+                                                   occluded=occluded)
         x0 = np.array([centre[0], centre[1], yaw, 0.0, 0.0, 0.0])
         p0 = np.diag(np.square(INITIAL_SIGMAS))
         track = ObjectTrack(self._next_id, KalmanFilter(x0, p0, np.eye(6), np.eye(6), np.eye(6),
