@@ -313,6 +313,36 @@ def parse_values(pairs: Iterable[str]) -> dict:
     return values
 
 
+def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str]) -> int:
+    """--scenes: the summary table over the seeds of each kind (lidar_seeds)."""
+    from .lidar_random_scene import KINDS
+    from .lidar_seeds import SUMMARY_HEADER, evaluate_kind, parse_seeds, summary_row, \
+        worst_objects
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown:
+        print(f'da_lidar_eval: unknown scene kind {unknown[0]!r} (valid: {", ".join(KINDS)})',
+              file=sys.stderr)
+        return 2
+    try:
+        seeds = parse_seeds(seeds_text)
+        base = TrackerConfig().with_values(**parse_values(parameters))
+    except (ValueError, InvalidInputError) as error:
+        print(f'da_lidar_eval: {error}', file=sys.stderr)
+        return 2
+    rows, notes = [], []
+    for kind in kinds:
+        result = evaluate_kind(kind, seeds, base,
+                               progress=lambda text: print(text, file=sys.stderr, flush=True))
+        rows.append(summary_row(result, seeds))
+        notes.extend(worst_objects(result))
+    print(SUMMARY_HEADER)
+    print('\n'.join(rows))
+    if notes:
+        print('objects missing a limit or switching ids (worst position first):')
+        print('\n'.join(notes))
+    return 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(prog='da_lidar_eval',
                                      description=' '.join(__doc__.split('\n\n')[0].split()))
@@ -326,6 +356,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help='runs per row; the timing is over all of them')
     parser.add_argument('-p', '--parameter', action='append', default=[],
                         help='name=value for every row (e.g. -p max_age=0.5)')
+    parser.add_argument('--scenes', default='',
+                        help='instead of a bag: generated scenes of these kinds (comma-separated, '
+                        'of car_static, car_moving, f1tenth_static, f1tenth_moving, race, '
+                        'crossing), default parameters with the kind\'s size class; per kind the '
+                        'median and worst object')
+    parser.add_argument('--seeds', default='100-129',
+                        help='seeds of the generated scenes: A-B or a,b,c (default 100-129; the '
+                        'tracker was tuned on 0-29)')
     parser.add_argument('--live', action='store_true',
                         help='also play the bag through lidar_tracker_node over DDS (default row)')
     args = parser.parse_args(argv)
@@ -333,6 +371,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     unknown = [r for r in rows if r not in ROWS]
     if unknown:
         parser.error(f'unknown row {unknown[0]!r} (valid: {", ".join(ROWS)})')
+    if args.scenes:
+        return scene_report(args.scenes.split(','), args.seeds, args.parameter)
     try:
         scans = read_scans(args.bag)
         base = TrackerConfig().with_values(**parse_values(args.parameter))

@@ -280,3 +280,26 @@ def scene_messages(name: str):
 URBAN_SEED = 1003
 """Seed of the committed random urban scene `lidar_urban_random` (not one of the benchmark's
 seeds)."""
+
+
+def crossing_scene(seed: int = 0, duration: float = 3.0) -> Scene:
+    """Issue 21's report: three full-size cars (4.5 m x 1.8 m) seen by a static LiDAR, one
+    turning on a 20 m radius at 8 m/s, one crossing the view at 90 deg to the sensor's x axis
+    (from y = -12 m at x = 15 m, 8 m/s), one oncoming (from (28, 3) at 8 m/s)."""
+    objects = [
+        SceneObject(1, 4.5, 1.8, Pieces((6.0, -8.0, 0.0), ((duration + 1.0, 8.0, 0.4),))),
+        SceneObject(2, 4.5, 1.8, Pieces((15.0, -12.0, np.pi / 2), ((duration + 1.0, 8.0, 0.0),))),
+        SceneObject(3, 4.5, 1.8, Pieces((28.0, 3.0, np.pi), ((duration + 1.0, 8.0, 0.0),))),
+    ]
+    return Scene(objects, None, np.zeros((0, 2, 2)), CAR_LIDAR, duration, seed, 'car')
+
+
+KINDS = {
+    'car_static': lambda seed: random_scene(seed, 'car', False),
+    'car_moving': lambda seed: random_scene(seed, 'car', True),
+    'f1tenth_static': lambda seed: random_scene(seed, 'f1tenth', False),
+    'f1tenth_moving': lambda seed: random_scene(seed, 'f1tenth', True),
+    'race': race_scene,
+    'crossing': crossing_scene,
+}
+"""Scene kind -> scene of a seed (da_lidar_eval --scenes)."""

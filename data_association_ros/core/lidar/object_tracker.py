@@ -50,7 +50,7 @@ from .fine import boundary_covariance, match
 from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
                           transition)
 from .parameters import TrackerConfig
-from .shape import contain, corners, fit_rectangle, rotation, sample_visible
+from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
@@ -58,6 +58,8 @@ MAX_COORDINATE = 1e5
 """Points farther than this [m] on either axis count as no return."""
 FLIP_SPEED = 1.0
 """Above this speed [m/s] the heading is turned by pi when it points against the velocity."""
+SETTLE_TIME = 0.5
+"""A track whose heading the velocity has not settled is reported after this time [s]."""
 
 __all__ = ['LidarObjectTracker', 'ObjectTrack', 'fictitious_measurement', 'rotation']
 
@@ -78,6 +80,8 @@ class ObjectTrack:
     updated: float = 0.0
     last: np.ndarray = field(default_factory=lambda: np.zeros(3))
     matched: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    settled: bool = False
+    born: float = 0.0
 
     def corners(self, state: Optional[np.ndarray] = None) -> np.ndarray:
         """The rectangle's corners (4, 2) at the track's (or the given) state."""
@@ -116,8 +120,10 @@ class LidarObjectTracker:
         self.tracks, self.time = [], None
 
     def reported(self) -> list[ObjectTrack]:
-        """Tracks updated on at least min_hits scans."""
-        return [t for t in self.tracks if t.hits >= self.config.min_hits]
+        """Tracks updated on at least min_hits scans whose heading is settled (heading_turn) or
+        that have been tracked for SETTLE_TIME."""
+        return [t for t in self.tracks if t.hits >= self.config.min_hits
+                and (t.settled or self.time - t.born >= SETTLE_TIME)]
 
     def step(self, points: np.ndarray, time: float, sensor: Optional[np.ndarray] = None,
              offsets: Optional[np.ndarray] = None) -> list[ObjectTrack]:
@@ -161,7 +167,9 @@ class LidarObjectTracker:
                 track.last = track.filter.x[:3].copy()
             if track.updated == time or not coasting:
                 free[clusters] = False
+        largest = config.max_size_ratio * max(config.priors())
         self.tracks = [t for t in self.tracks if time - t.updated <= config.max_age
+                       and max(t.length, t.width) <= largest
                        and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
@@ -284,12 +292,18 @@ class LidarObjectTracker:
             return False
         track.filter.update(z[rows])
         x = track.filter.x
-        speed = np.hypot(x[3], x[4])
-        if speed > FLIP_SPEED and np.cos(x[2] - np.arctan2(x[4], x[3])) < 0:
+        turn, settled = heading_turn(x, track.filter.p[3:5, 3:5])
+        track.settled = track.settled or settled
+        track.matched = sample[pairs[:, 0]]
+        if abs(turn) > 3:  # pointing backwards: the same rectangle, turned round
             x[2] += np.pi
             track.anchor = -track.anchor
+        elif turn:  # the axes were mistaken: the rectangle anew along the velocity
+            centre, yaw, length, width = fit_at(scan, x[2] + turn, *self.config.priors(),
+                                                sensor=self.sensor)
+            x[:3] = [centre[0], centre[1], yaw]
+            track.length, track.width = length, width
         x[2] = wrap_angle(x[2])
-        track.matched = sample[pairs[:, 0]]
         self._grow(track, track.matched, scan)
         return True
 
@@ -319,17 +333,43 @@ class LidarObjectTracker:
 
     def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float) -> None:
         config = self.config
-        centre, yaw, length, width = fit_rectangle(cluster, config.prior_length,
-                                                   config.prior_width, sensor=self.sensor,
+        prior_length, prior_width = config.priors()
+        centre, yaw, length, width = fit_rectangle(cluster, prior_length, prior_width,
+                                                   sensor=self.sensor,
                                                    occluded=occluded)
+        if max(length, width) > config.max_size_ratio * max(prior_length, prior_width):
+            return  # a wall or a building, not an object of this size class
         x0 = np.array([centre[0], centre[1], yaw, 0.0, 0.0, 0.0])
         p0 = np.diag(np.square(INITIAL_SIGMAS))
         track = ObjectTrack(self._next_id, KalmanFilter(x0, p0, np.eye(6), np.eye(6), np.eye(6),
                                                         np.eye(6)), length, width,
                             (cluster.mean(axis=0) - centre) @ rotation(yaw), updated=time,
-                            last=x0[:3].copy())
+                            last=x0[:3].copy(), born=time)
         self.tracks.append(track)
         self._next_id += 1
+
+
+def heading_turn(state: np.ndarray, velocity_covariance: np.ndarray) -> tuple[float, bool]:
+    """(turn, settled) from the velocity state[3:5] (covariance (2, 2)) in the rectangle's axes:
+    v_u along the heading state[2], v_n across it, their stds s_u, s_n.  The larger component
+    tells the turn: v_u > 0 none, v_u < 0 pi (pointing backwards), v_n +-pi/2 (the axes were
+    mistaken: a rectangle fit is ambiguous by 90 deg, a car does not drive sideways); it counts
+    when it exceeds FLIP_SPEED and 3 of its stds, else the turn is 0.  settled: the velocity
+    told the heading, or the object is known to be too slow to tell (speed and 3 stds below
+    FLIP_SPEED: the shape is all there is)."""
+    c, s = np.cos(state[2]), np.sin(state[2])
+    u, n = np.array([c, s]), np.array([-s, c])
+    v_u, v_n = float(u @ state[3:5]), float(n @ state[3:5])
+    s_u = float(np.sqrt(max(u @ velocity_covariance @ u, 0.0)))
+    s_n = float(np.sqrt(max(n @ velocity_covariance @ n, 0.0)))
+    along = abs(v_u) >= abs(v_n)
+    value, sigma = (v_u, s_u) if along else (v_n, s_n)
+    if abs(value) <= max(FLIP_SPEED, 3 * sigma):
+        slow = np.hypot(v_u, v_n) < FLIP_SPEED and 3 * max(s_u, s_n) < FLIP_SPEED
+        return 0.0, bool(slow)
+    if along:
+        return (0.0 if value > 0 else np.pi), True
+    return float(np.copysign(np.pi / 2, value)), True
 
 
 def evenly(count: int, most: int) -> np.ndarray:
