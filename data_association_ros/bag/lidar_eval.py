@@ -234,9 +234,25 @@ def estimate_from_tracks(msg) -> Estimate:
     return Estimate(array['id'].astype(int), states)
 
 
-def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0) -> list[Estimate]:
-    """The bag's scans through a lidar_tracker_node (parameters = config) over DDS, one at a
-    time; the reported tracks per scan (RuntimeError when a reply does not come)."""
+@dataclass
+class LiveRun:
+    """A bag through lidar_tracker_node: reported tracks per scan, the node's step times [ms],
+    scans it tracked and dropped, the tracks' frame."""
+
+    estimates: list
+    step_ms: np.ndarray
+    scans: int
+    dropped: int
+    frame: str
+
+
+def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0,
+             paced: bool = False) -> LiveRun:
+    """The bag's /odometry and /scan through a lidar_tracker_node (parameters = config) over
+    DDS.  Lock-step (default): each scan once the previous one's `tracks` arrived.  paced: every
+    message at its log time (real time, as a sensor would), then all replies awaited.
+    RuntimeError when a reply does not come."""
+    from nav_msgs.msg import Odometry
     from rclpy.parameter import Parameter
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import LaserScan, PointCloud2
@@ -244,28 +260,46 @@ def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0) -> list[Es
     from ..nodes.lidar_tracker_node import LidarTrackerNode
     from .ros_environment import close_graph, open_graph
     context, player, executor = open_graph('da_lidar_eval')
-    reliable = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+    reliable = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
     overrides = [Parameter(name, value=getattr(config, name)) for name in
                  config.__dataclass_fields__] + [Parameter('input_qos', value='reliable')]
     node = LidarTrackerNode(context=context, parameter_overrides=overrides)
     executor.add_node(node)
     try:
-        publisher = player.create_publisher(LaserScan, 'scan', reliable)
+        reader = BagReader(bag)
+        topics = [SCAN] + ([ODOMETRY] if ODOMETRY in reader.topics else [])
+        publishers = {SCAN: player.create_publisher(LaserScan, 'scan', reliable),
+                      ODOMETRY: player.create_publisher(Odometry, 'odometry', reliable)}
         replies: list = []
         player.create_subscription(PointCloud2, 'tracks', replies.append, reliable)
 
-        def spin_until(condition) -> None:
-            deadline = time.monotonic() + timeout
+        def spin_until(condition, limit: float = timeout) -> None:
+            deadline = time.monotonic() + limit
             while not condition():
                 if time.monotonic() > deadline:
                     raise RuntimeError('lidar_tracker_node did not answer in time')
-                executor.spin_once(timeout_sec=0.01)
-        spin_until(lambda: publisher.get_subscription_count() > 0
+                executor.spin_once(timeout_sec=0.001)
+        spin_until(lambda: publishers[SCAN].get_subscription_count() > 0
                    and player.count_publishers('tracks') > 0)
-        for count, message in enumerate(BagReader(bag).messages([SCAN]), 1):
-            publisher.publish(message.msg)
-            spin_until(lambda: len(replies) >= count)
-        return [estimate_from_tracks(msg) for msg in replies]
+        messages = list(reader.messages(topics))
+        sent = odometry = 0
+        start_wall, start_log = time.monotonic(), messages[0].log_time_ns if messages else 0
+        for message in messages:
+            if paced:
+                due = start_wall + (message.log_time_ns - start_log) * 1e-9
+                while time.monotonic() < due:
+                    executor.spin_once(timeout_sec=max(0.0, min(0.001, due - time.monotonic())))
+            publishers[message.topic].publish(message.msg)
+            if message.topic == SCAN:
+                sent += 1
+                if not paced:  # answered, or kept until the odometry of its time came
+                    spin_until(lambda: len(replies) + node.invalid + len(node.waiting) >= sent)
+            elif not paced:  # lock-step: the node has each pose before the next scan
+                odometry += 1
+                spin_until(lambda: node.odometry_count + node.invalid_odometry >= odometry)
+        spin_until(lambda: len(replies) + node.invalid >= sent, limit=timeout + sent * 0.1)
+        return LiveRun([estimate_from_tracks(msg) for msg in replies], np.array(node.step_ms),
+                       node.scans, node.invalid, replies[-1].header.frame_id if replies else '')
     finally:
         executor.remove_node(node)
         node.destroy_node()
@@ -364,6 +398,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--seeds', default='100-129',
                         help='seeds of the generated scenes: A-B or a,b,c (default 100-129; the '
                         'tracker was tuned on 0-29)')
+    parser.add_argument('--paced', action='store_true',
+                        help='also play the bag through lidar_tracker_node at its own rate '
+                        '(real time) and report the node\'s step times')
     parser.add_argument('--live', action='store_true',
                         help='also play the bag through lidar_tracker_node over DDS (default row)')
     args = parser.parse_args(argv)
@@ -394,9 +431,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print(table_rows(label, score(scans, estimates, args.first), np.concatenate(elapsed)),
               flush=True)
     if args.live:
-        estimates = run_live(args.bag, base)
+        live = run_live(args.bag, base)
         print(table_rows(f'{ROWS["default"][0]}, live: lidar_tracker_node over DDS',
-                         score(scans, estimates, args.first), None))
+                         score(scans, live.estimates, args.first), None))
+    if args.paced:
+        live = run_live(args.bag, base, paced=True)
+        print(table_rows(f'{ROWS["default"][0]}, live at the bag\'s rate: lidar_tracker_node '
+                         'over DDS', score(scans, live.estimates, args.first), live.step_ms))
+        print(f'paced: {len(scans)} scans sent, {live.scans} tracked, {live.dropped} dropped, '
+              f'{len(live.estimates)} tracks messages in frame {live.frame!r}; node step time '
+              f'median {np.median(live.step_ms):.1f} ms, p95 '
+              f'{np.percentile(live.step_ms, 95):.1f} ms, max {np.max(live.step_ms):.1f} ms')
     return 0
 
 

@@ -99,6 +99,10 @@ class LidarTracking:
         self.odometry.add(time, pose)
         self.odometry_frame = frame
 
+    def covers(self, time: float) -> bool:
+        """Whether the odometry reaches `time` [s] (a scan's last beam) without extrapolation."""
+        return bool(len(self.odometry)) and self.odometry.times[-1] >= time
+
     def reset(self) -> None:
         """Forget tracks and odometry (a bag played again)."""
         self.tracker.reset()

@@ -334,6 +334,9 @@ class LidarObjectTracker:
     def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float) -> None:
         config = self.config
         prior_length, prior_width = config.priors()
+        largest = config.max_size_ratio * max(prior_length, prior_width)
+        if np.hypot(*(cluster[-1] - cluster[0])) > np.sqrt(2) * largest:
+            return  # its ends are farther apart than the diagonal of any object this size
         centre, yaw, length, width = fit_rectangle(cluster, prior_length, prior_width,
                                                    sensor=self.sensor,
                                                    occluded=occluded)
