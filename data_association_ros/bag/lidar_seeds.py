@@ -15,6 +15,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from ..core.lidar import TrackerConfig
+from ..core.lidar.parameters import PRESETS
 from .lidar_eval import ObjectScore, run_offline, scans_from_messages, score
 from .lidar_random_scene import KINDS
 
@@ -39,8 +40,8 @@ class KindResult:
 
 
 def configuration(kind: str, base: TrackerConfig) -> TrackerConfig:
-    """The parameters of a kind: `base` with the size class's preset."""
-    return base.with_values(size_class=SIZE_OF_KIND[kind])
+    """The parameters of a kind: `base` with its size class's preset (core.lidar.PRESETS)."""
+    return base.with_values(**PRESETS[SIZE_OF_KIND[kind]])
 
 
 def evaluate_kind(kind: str, seeds: Sequence[int], base: TrackerConfig,

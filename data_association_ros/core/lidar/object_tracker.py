@@ -56,8 +56,13 @@ INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
 MAX_COORDINATE = 1e5
 """Points farther than this [m] on either axis count as no return."""
-FLIP_SPEED = 1.0
-"""Above this speed [m/s] the heading is turned by pi when it points against the velocity."""
+FLIP_RATE = 0.25
+"""Objects faster than this many of their prior lengths per second (1.1 m/s for a car, 0.14 m/s
+for an F1Tenth car) are fast enough for their velocity to tell the heading (heading_turn)."""
+SIGMAS_TO_TURN, VOTES_TO_TURN = 1.0, 5
+"""The heading is turned when the velocity points elsewhere by more than 1 of its stds (the
+filter's velocity std is about 0.7 m/s at 40 Hz with accel_sigma 4, far more than its actual
+error) on 5 updates in a row."""
 SETTLE_TIME = 0.5
 """A track whose heading the velocity has not settled is reported after this time [s]."""
 
@@ -82,6 +87,8 @@ class ObjectTrack:
     matched: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     settled: bool = False
     born: float = 0.0
+    vote: float = 0.0
+    votes: int = 0
 
     def corners(self, state: Optional[np.ndarray] = None) -> np.ndarray:
         """The rectangle's corners (4, 2) at the track's (or the given) state."""
@@ -292,7 +299,12 @@ class LidarObjectTracker:
             return False
         track.filter.update(z[rows])
         x = track.filter.x
-        turn, settled = heading_turn(x, track.filter.p[3:5, 3:5])
+        turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
+                                     FLIP_RATE * max(config.priors()), SIGMAS_TO_TURN)
+        votes = track.votes + 1 if turn and turn == track.vote else 1
+        track.vote, track.votes = turn, votes
+        if turn and votes < VOTES_TO_TURN:
+            turn, settled = 0.0, False
         track.settled = track.settled or settled
         track.matched = sample[pairs[:, 0]]
         if abs(turn) > 3:  # pointing backwards: the same rectangle, turned round
@@ -352,14 +364,15 @@ class LidarObjectTracker:
         self._next_id += 1
 
 
-def heading_turn(state: np.ndarray, velocity_covariance: np.ndarray) -> tuple[float, bool]:
+def heading_turn(state: np.ndarray, velocity_covariance: np.ndarray,
+                 flip_speed: float = 1.0, sigmas: float = 3.0) -> tuple[float, bool]:
     """(turn, settled) from the velocity state[3:5] (covariance (2, 2)) in the rectangle's axes:
     v_u along the heading state[2], v_n across it, their stds s_u, s_n.  The larger component
     tells the turn: v_u > 0 none, v_u < 0 pi (pointing backwards), v_n +-pi/2 (the axes were
     mistaken: a rectangle fit is ambiguous by 90 deg, a car does not drive sideways); it counts
-    when it exceeds FLIP_SPEED and 3 of its stds, else the turn is 0.  settled: the velocity
-    told the heading, or the object is known to be too slow to tell (speed and 3 stds below
-    FLIP_SPEED: the shape is all there is)."""
+    when it exceeds flip_speed [m/s] and `sigmas` of its stds, else the turn is 0.  settled: the
+    velocity told the heading, or the object is known to be too slow to tell (speed and
+    `sigmas` stds below flip_speed: the shape is all there is)."""
     c, s = np.cos(state[2]), np.sin(state[2])
     u, n = np.array([c, s]), np.array([-s, c])
     v_u, v_n = float(u @ state[3:5]), float(n @ state[3:5])
@@ -367,8 +380,8 @@ def heading_turn(state: np.ndarray, velocity_covariance: np.ndarray) -> tuple[fl
     s_n = float(np.sqrt(max(n @ velocity_covariance @ n, 0.0)))
     along = abs(v_u) >= abs(v_n)
     value, sigma = (v_u, s_u) if along else (v_n, s_n)
-    if abs(value) <= max(FLIP_SPEED, 3 * sigma):
-        slow = np.hypot(v_u, v_n) < FLIP_SPEED and 3 * max(s_u, s_n) < FLIP_SPEED
+    if abs(value) <= max(flip_speed, sigmas * sigma):
+        slow = np.hypot(v_u, v_n) < flip_speed and sigmas * max(s_u, s_n) < flip_speed
         return 0.0, bool(slow)
     if along:
         return (0.0 if value > 0 else np.pi), True
