@@ -59,10 +59,10 @@ MAX_COORDINATE = 1e5
 FLIP_RATE = 0.25
 """Objects faster than this many of their prior lengths per second (1.1 m/s for a car, 0.14 m/s
 for an F1Tenth car) are fast enough for their velocity to tell the heading (heading_turn)."""
-SIGMAS_TO_TURN, VOTES_TO_TURN = 1.0, 5
-"""The heading is turned when the velocity points elsewhere by more than 1 of its stds (the
-filter's velocity std is about 0.7 m/s at 40 Hz with accel_sigma 4, far more than its actual
-error) on 5 updates in a row."""
+SIGMAS_TO_TURN, VOTES_TO_TURN = 1.0, 3
+"""The heading is turned (or confirmed) when the velocity points elsewhere (or the same way) by
+more than 1 of its stds (the filter's velocity std is about 0.7 m/s at 40 Hz with accel_sigma 4,
+far more than its actual error) on 3 updates in a row."""
 SETTLE_TIME = 0.5
 """A track whose heading the velocity has not settled is reported after this time [s]."""
 
@@ -301,10 +301,15 @@ class LidarObjectTracker:
         x = track.filter.x
         turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
                                      FLIP_RATE * max(config.priors()), SIGMAS_TO_TURN)
-        votes = track.votes + 1 if turn and turn == track.vote else 1
-        track.vote, track.votes = turn, votes
-        if turn and votes < VOTES_TO_TURN:
-            turn, settled = 0.0, False
+        told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= FLIP_RATE * max(
+            config.priors()))  # the velocity told (else: known to be too slow to tell)
+        if told:
+            track.votes = track.votes + 1 if turn == track.vote else 1
+            track.vote = turn
+            if track.votes < VOTES_TO_TURN:
+                turn, settled = 0.0, False
+        else:
+            track.votes = 0
         track.settled = track.settled or settled
         track.matched = sample[pairs[:, 0]]
         if abs(turn) > 3:  # pointing backwards: the same rectangle, turned round
