@@ -118,11 +118,12 @@ def test_cluster_ends_tell_edges_from_occlusions():
     np.testing.assert_array_equal(labels, [0, 0, 0, 1, 1, 1, 2, 2, -1, 3, 3, 3])
     ends, edge, occluded = cluster_ends(points, labels, jump=0.3)
     np.testing.assert_array_equal(ends, [[0, 2], [3, 5], [6, 7], [9, 11]])
-    # first end of cluster 0 and last of 3 are the scan's limits: unknown
+    # first end of cluster 0 and last of 3 are the scan's limits: cut by the field of view
+    # (occluded, not an edge)
     np.testing.assert_array_equal(edge, [[False, False], [True, True], [False, True],
                                          [True, False]])
-    np.testing.assert_array_equal(occluded, [[False, True], [False, False], [True, False],
-                                             [False, False]])
+    np.testing.assert_array_equal(occluded, [[True, True], [False, False], [True, False],
+                                             [False, True]])
 
 
 def test_visible_faces_and_their_samples():

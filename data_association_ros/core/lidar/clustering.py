@@ -35,7 +35,8 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
     An end is an edge (the object's outline really ends there) when the neighbouring return
     outside the cluster is missing (nothing behind) or farther by more than `jump` [m]; it is
     occluded when that return is nearer by more than `jump` (something in front hides the
-    rest); neither when within `jump` or when the end is the first or last beam of the scan."""
+    rest), or when it is the first or last beam of the scan (the field of view cuts it);
+    neither when within `jump`."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     count = int(labels.max()) + 1 if labels.size else 0
     index = np.arange(len(labels))
@@ -53,4 +54,5 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
         neighbour_range = ranges[clipped]
         step = neighbour_range - ranges[ends]
     missing = ~np.isfinite(neighbour_range)
-    return ends, in_scan & (missing | (step > jump)), in_scan & ~missing & (step < -jump)
+    return ends, in_scan & (missing | (step > jump)), \
+        ~in_scan | (~missing & (step < -jump))

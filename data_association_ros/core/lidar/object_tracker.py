@@ -151,6 +151,7 @@ class LidarObjectTracker:
             points = np.where(np.abs(points) <= MAX_COORDINATE, points, np.nan)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
+        self._occluded = occluded
         count = len(ends)
         dt = None if self.time is None else time - self.time
         before, self.time = self.time, time
@@ -316,8 +317,9 @@ class LidarObjectTracker:
             x[2] += np.pi
             track.anchor = -track.anchor
         elif turn:  # the axes were mistaken: the rectangle anew along the velocity
+            hidden = self._occluded[clusters[0]] if len(clusters) == 1 else None
             centre, yaw, length, width = fit_at(scan, x[2] + turn, *self.config.priors(),
-                                                sensor=self.sensor)
+                                                sensor=self.sensor, occluded=hidden)
             x[:3] = [centre[0], centre[1], yaw]
             track.length, track.width = length, width
         x[2] = wrap_angle(x[2])
