@@ -157,6 +157,8 @@ def test_committed_scene_bags_regenerate(name):
     each under 2 MB."""
     from pathlib import Path
 
+    from rclpy.serialization import deserialize_message, serialize_message
+
     from data_association_ros.bag.lidar_random_scene import scene_messages
     from data_association_ros.bag.reader import BagReader
     from test_bags import assert_same_message
@@ -167,4 +169,17 @@ def test_committed_scene_bags_regenerate(name):
     assert len(fresh) == len(committed)
     for (topic, msg, log_time), stored in zip(fresh, committed):
         assert (topic, log_time) == (stored.topic, stored.log_time_ns)
+        msg = deserialize_message(serialize_message(msg), type(msg))  # float32 fields rounded
         assert_same_message(msg, stored.msg, f'{topic} at {log_time}')
+
+
+def test_f1tenth_parameter_file_is_the_preset():
+    import pathlib
+
+    import yaml
+
+    from data_association_ros.core.lidar.parameters import PRESETS
+    path = pathlib.Path(__file__).resolve().parents[1] / 'config' / 'lidar_f1tenth.yaml'
+    values = yaml.safe_load(path.read_text())['lidar_tracker_node']['ros__parameters']
+    assert values == PRESETS['f1tenth']
+    TrackerConfig().with_values(**values)

@@ -1,20 +1,30 @@
-"""da_lidar_eval: the LiDAR object tracker (seed 003) on a LiDAR bag, scored against its truth.
+"""da_lidar_eval: the LiDAR object tracker (seed 003) on a LiDAR bag, or on generated scenes,
+scored against the truth.
 
     da_lidar_eval [BAG] [--rows default,nearest,polar,...] [--first 0] [--repeat 1] [--live]
-                  [-p name=value ...]
+                  [--paced] [-p name=value ...]
+    da_lidar_eval --scenes car_static,car_moving,f1tenth_static,f1tenth_moving,race
+                  [--seeds 100-129] [-p name=value ...]
 
-Runs the core tracker offline over /scan (sensor_msgs/LaserScan), once per row (a row = the
-default parameters with some changed), and prints a Markdown table.  --live also sends the bag's
-scans to a lidar_tracker_node over real DDS (loopback, own domain; each scan once the previous
-one's `tracks` arrived) and scores those `tracks` (the same numbers as offline, or a bug).
+Runs the core tracker offline over /scan (sensor_msgs/LaserScan) with the bag's /odometry if any
+(pipelines.lidar_tracking), once per row (a row = the default parameters with some changed), and
+prints a Markdown table.  --live also sends the bag's odometry and scans to a lidar_tracker_node
+over real DDS (loopback, own domain; each scan once the previous one's `tracks` arrived) and
+scores those `tracks` (the same numbers as offline, or a bug); --paced plays them at the bag's
+own rate and reports the node's step times and the scans it tracked.  --scenes: generated
+scenes (bag.lidar_random_scene) of each kind over the seeds, summarised per kind
+(bag.lidar_seeds: median and worst object).
 
-Scores, per object (the truth on /ground_truth/objects, same frame as the scan): in each scan
-from --first on, the reported tracks are paired with the true objects by the Hungarian method on
-centre distance (pairs farther than 2.5 m are not pairs); position RMSE [m] of the rectangle
-centre, heading RMSE [deg] (yaw error wrapped to (-180, 180]), velocity RMSE [m/s] (norm of the
-vector error), over the scans where the object has a pair; coverage = the share of scans with a
-pair; id switches = the times the paired track id changes.  Time per scan: tracker.step only
-(clustering, association, update), median and 95th percentile [ms], one core.
+Scores, per object (the truth on /ground_truth/objects, in the tracks' frame, matched to a scan
+by header stamp): in each scan from --first on, the reported tracks are paired with the true
+objects by the Hungarian method on centre distance (pairs farther than 2.5 m, or 0.55 of the
+object's length when the truth gives it, are not pairs); over the scans where the object is
+visible (at least MIN_VISIBLE_BEAMS beams hit it, when the truth says): position RMSE [m] of the
+rectangle centre, heading RMSE [deg] (yaw error wrapped to (-180, 180]), velocity RMSE [m/s]
+(norm of the vector error), over those scans where the object has a pair; coverage = the share
+of those scans with a pair; id switches = the times the paired track id changes.  Time per
+scan: the tracking step only (clustering, association, update), median and 95th percentile
+[ms], one core.
 """
 from __future__ import annotations
 

@@ -4,7 +4,8 @@
 Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 1. cluster consecutive points (clustering.cluster_consecutive) and flag each cluster end that is
    an object edge or occluded (clustering.cluster_ends);
-2. predict every track to t (measurement.transition, process_noise);
+2. predict every track to t, its velocity turning with its yaw rate (measurement.
+   turning_prediction, process_noise);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
    centroid in the object frame, moved with the predicted pose; covariance A P A^T +
    coarse_sigma^2 I) by the registry associator `coarse`; a cluster left over whose centroid lies
@@ -17,19 +18,25 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    ransac); form the fictitious measurement over the time since the track's last update and its
    noise (measurement); Kalman update with [x, y, yaw] (or, velocity_measurement, all six terms
    as the seed), unless it fails the filter's chi-square gate;
-6. the heading follows the velocity (yaw + pi when they disagree above 1 m/s); the rectangle grows
-   or moves to contain the matched points (shape.contain);
+6. the velocity settles the heading (heading_turn): when it points backwards (pi) or across
+   (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
+   turned round, or fitted anew along the velocity (shape.fit_at); a track is reported only once
+   its heading is settled so (or known too slow to tell, or after SETTLE_TIME); the rectangle
+   grows or moves to contain the matched points (shape.contain);
 7. a cluster no track took, or taken by a coasting track that it could not correct, starts a
-   track if it has min_pairs points (shape.fit_rectangle; velocity 0, uncertain); a track not
+   track if it has min_pairs points and is not larger than max_size_ratio x the size class's
+   prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
    found again), as is a track not updated for more than max_age seconds.
 
 Added to the seed (why: README "LiDAR object tracking"): the boundary is a rectangle model with
-an estimated extent (completed by prior_length / prior_width on the hidden side) sampled on its
+an estimated extent (completed by the size class's priors on the hidden side) sampled on its
 visible faces, instead of accumulated scan points whose bounding box drifts and is not the
 object's centre when only part of it was seen; the point_to_line correction; the correction's
-covariance in R; the velocity left to the filter by default.  The LiDAR is assumed static (the
-scan frame is the tracking frame).
+covariance in R; the velocity left to the filter by default.  The tracking frame is the caller's:
+points and the sensor position (step's `sensor`) in that frame (pipelines.lidar_tracking moves a
+moving sensor's scans into the odometry frame); per-point times (`offsets`) move an object's
+points back to the scan's stamp with its predicted velocity.
 """
 from __future__ import annotations
 
@@ -48,7 +55,7 @@ from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigi
 from .clustering import cluster_consecutive, cluster_ends
 from .fine import boundary_covariance, match
 from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
-                          transition)
+                          turning_prediction)
 from .parameters import TrackerConfig
 from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
 
@@ -156,9 +163,10 @@ class LidarObjectTracker:
         dt = None if self.time is None else time - self.time
         before, self.time = self.time, time
         for track in self.tracks:
-            track.filter.f = transition(dt)
+            predicted, track.filter.f = turning_prediction(track.filter.x, dt)
             track.filter.q = process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)
             track.filter.predict()
+            track.filter.x = predicted
             track.matched = np.zeros((0, 2))
         members = self._coarse(points, labels, count)
         free = np.ones(count, dtype=bool)

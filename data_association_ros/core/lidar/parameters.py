@@ -17,11 +17,12 @@ person (shoulders and stride)."""
 PRESETS = {
     'car': {},
     'f1tenth': {'size_class': 'f1tenth', 'fine': 'nearest', 'nearest_cutoff': 0.1,
-                'boundary_spacing': 0.05},
+                'boundary_spacing': 0.05, 'max_size_ratio': 2.0},
 }
 """Parameter sets per setting (config/lidar_<name>.yaml): F1Tenth racing pairs points with the
 nearest boundary point within 0.1 m (JCBB takes most of a 25 ms scan period on this 2-core
-machine; nearest is about 2-3x faster here) on a boundary sampled every 5 cm (a 0.55 m car)."""
+machine; nearest is about 2-3x faster here) on a boundary sampled every 5 cm (a 0.55 m car), and
+takes anything longer than 1.1 m for the track's walls."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
 
 
@@ -91,7 +92,7 @@ PARAMETERS = (
            'not seen [m]'),
     _float('prior_width', 1.8, 'size_class custom: assumed width of an object whose width is not '
            'seen [m]'),
-    _float('max_size_ratio', 2.0, 'a cluster or track longer than this times the prior length '
+    _float('max_size_ratio', 4.0, 'a cluster or track longer than this times the prior length '
            'is background (walls), not tracked'),
     _float('ransac_threshold', 0.1, 'transform ransac: inlier distance [m]'),
     _float('accel_sigma', 4.0, 'process noise: white acceleration [m/s^2/sqrt(Hz)]'),
@@ -136,7 +137,7 @@ class TrackerConfig:
     size_class: str = 'car'
     prior_length: float = 4.5
     prior_width: float = 1.8
-    max_size_ratio: float = 2.0
+    max_size_ratio: float = 4.0
     ransac_threshold: float = 0.1
     accel_sigma: float = 4.0
     yaw_accel_sigma: float = 4.0
