@@ -246,10 +246,12 @@ def estimate_from_tracks(msg) -> Estimate:
 
 @dataclass
 class LiveRun:
-    """A bag through lidar_tracker_node: reported tracks per scan, the node's step times [ms],
-    scans it tracked and dropped, the tracks' frame."""
+    """A bag through lidar_tracker_node: reported tracks per scan of the bag (matched by stamp;
+    none for a scan the node dropped), the node's step times [ms], scans it tracked and dropped,
+    the tracks' frame."""
 
     estimates: list
+    replies: int
     step_ms: np.ndarray
     scans: int
     dropped: int
@@ -308,8 +310,11 @@ def run_live(bag: Path, config: TrackerConfig, timeout: float = 10.0,
                 odometry += 1
                 spin_until(lambda: node.odometry_count + node.invalid_odometry >= odometry)
         spin_until(lambda: len(replies) + node.invalid >= sent, limit=timeout + sent * 0.1)
-        return LiveRun([estimate_from_tracks(msg) for msg in replies], np.array(node.step_ms),
-                       node.scans, node.invalid, replies[-1].header.frame_id if replies else '')
+        by_stamp = {stamp_ns(msg): estimate_from_tracks(msg) for msg in replies}
+        empty = Estimate(np.zeros(0, dtype=int), np.zeros((0, 6)))
+        estimates = [by_stamp.get(stamp_ns(m.msg), empty) for m in messages if m.topic == SCAN]
+        return LiveRun(estimates, len(replies), np.array(node.step_ms), node.scans, node.invalid,
+                       replies[-1].header.frame_id if replies else '')
     finally:
         executor.remove_node(node)
         node.destroy_node()
@@ -433,6 +438,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     print(HEADER)
     for row in rows:
         label, changes = ROWS[row]
+        if args.parameter:
+            label += ' (' + ', '.join(args.parameter) + ')'
         config = base.with_values(**changes)
         elapsed = []
         for _ in range(max(args.repeat, 1)):
@@ -449,7 +456,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print(table_rows(f'{ROWS["default"][0]}, live at the bag\'s rate: lidar_tracker_node '
                          'over DDS', score(scans, live.estimates, args.first), live.step_ms))
         print(f'paced: {len(scans)} scans sent, {live.scans} tracked, {live.dropped} dropped, '
-              f'{len(live.estimates)} tracks messages in frame {live.frame!r}; node step time '
+              f'{live.replies} tracks messages in frame {live.frame!r}; node step time '
               f'median {np.median(live.step_ms):.1f} ms, p95 '
               f'{np.percentile(live.step_ms, 95):.1f} ms, max {np.max(live.step_ms):.1f} ms')
     return 0

@@ -42,7 +42,7 @@ from .parameterized_node import ParameterizedNode, spin, usage_text
 
 RESTART_AFTER_S = 1.0
 """A scan this much older than the previous one restarts the tracker."""
-MAX_WAITING_SCANS = 4
+MAX_WAITING_SCANS = 8
 """Scans kept waiting for the odometry of their time; beyond, the oldest is processed (with
 extrapolated odometry, or dropped)."""
 
@@ -83,10 +83,12 @@ class LidarTrackerNode(ParameterizedNode):
         self.on_change()
         qos = qos_profile_sensor_data if self.config['input_qos'] == 'sensor_data' else \
             QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.create_subscription(LaserScan, 'scan', self._on_scan, qos)
-        self.create_subscription(PointCloud2, 'points', self._on_points, qos)
+        # odometry first: the executor takes ready subscriptions in creation order, and a scan
+        # can only be processed once the odometry of its time is in
         self.create_subscription(Odometry, 'odometry', self._on_odometry,
                                  QoSProfile(depth=100, reliability=qos.reliability))
+        self.create_subscription(LaserScan, 'scan', self._on_scan, qos)
+        self.create_subscription(PointCloud2, 'points', self._on_points, qos)
         self.tracks_pub = self.create_publisher(PointCloud2, 'tracks', 10)
         self.boundaries_pub = self.create_publisher(PointCloud2, 'track_boundaries', 10)
         self.markers_pub = self.create_publisher(MarkerArray, 'track_markers', 10)
