@@ -9,11 +9,12 @@ at that time (ray casting, core.lidar.raycast), Gaussian range noise.
   1.6-2.0 m, 30 m LiDAR; `f1tenth`: 0.50-0.60 m x 0.27-0.33 m, 10 m LiDAR with distances / 5
   and speeds / 2 of the car class) at random bearings and distances from the sensor, headings
   uniform over all directions, speeds 1.5-10 m/s (car class), a straight piece then a turn
-  (|yaw rate| up to 0.4 rad/s, up to 1.2 rad/s for f1tenth), objects that start outside the field of view or
-  range and enter, others that leave; a corridor of two walls on half of the seeds.  Objects
-  never overlap each other, the sensor or a wall (rejection sampling on 0.05 s steps with their
-  circumscribed circles), so occlusions come from objects passing in front of others.  The
-  moving sensor drives straight at 3-8 m/s (0.6-1.6 m/s for f1tenth) along the corridor.
+  (|yaw rate| up to 0.4 rad/s, up to 1.2 rad/s for f1tenth), objects that start outside the
+  field of view or range and enter, others that leave; a corridor of two walls on half of the
+  seeds.  Objects never overlap each other, the sensor or a wall (rejection sampling on 0.05 s
+  steps with their circumscribed circles), so occlusions come from objects passing in front of
+  others.  The moving sensor drives straight at 3-8 m/s (0.6-1.6 m/s for f1tenth) along the
+  corridor.
 * `race_scene(seed)`: F1Tenth racing (seed 003's setting): a stadium track (14 m straights, 4 m
   radius, walls 1 m either side of the centre line), the ego car at 4-5.5 m/s in the inner lane
   (+0.4 m), opponent 1 ahead of it in the same lane, a bit faster, opponent 2 from behind the ego
@@ -38,7 +39,7 @@ from sensor_msgs.msg import LaserScan
 
 from msg_adapters import array_to_cloud, odometry_message
 
-from ..core.lidar import raycast, rectangle_segments
+from ..core.lidar import raycast
 from .lidar_motion import Motion, Pieces, Stadium, TrackLane, lane_change
 from .topics import header
 
@@ -177,7 +178,8 @@ class Scene:
 
 
 def _rectangles(states: np.ndarray, length: float, width: float) -> np.ndarray:
-    """Sides (T, 4, 2, 2) of a rectangle at poses (T, 3) (raycast.rectangle_segments, vectorised)."""
+    """Sides (T, 4, 2, 2) of a rectangle at poses (T, 3) (core.lidar.rectangle_segments at
+    every pose at once)."""
     half = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [length / 2, width / 2]
     c, s = np.cos(states[:, 2])[:, None], np.sin(states[:, 2])[:, None]
     corners = np.stack([c * half[:, 0] - s * half[:, 1], s * half[:, 0] + c * half[:, 1]],
@@ -216,10 +218,9 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
     walls_y = rng.uniform(8.0, 14.0) * scale if rng.random() < 0.5 else None
     walls = np.zeros((0, 2, 2))
     if walls_y is not None:
-        walls = np.array([[[-60.0, -walls_y], [120.0, -walls_y]],
-                          [[-60.0, walls_y], [120.0, walls_y]]]) * [1.0, 1.0]
-        if size != 'car':
-            walls[:, :, 0] *= scale * 2
+        reach = 1.0 if size == 'car' else 2 * scale  # along x: -60 to 120 m, -24 to 48 m
+        walls = np.array([[[-60.0 * reach, -walls_y], [120.0 * reach, -walls_y]],
+                          [[-60.0 * reach, walls_y], [120.0 * reach, walls_y]]])
     times = np.arange(0.0, duration + 1e-9, 0.05)
     count = int(rng.integers(1, 6))
     objects, placed = [], []
@@ -235,9 +236,7 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
             speed = rng.uniform(1.5, 10.0) * speed_scale
             straight = rng.uniform(0.0, duration)
             turn = rng.uniform(-max_turn, max_turn) * (rng.random() < 0.6)
-            origin = np.zeros(2) if sensor is None else np.zeros(2)
-            start = (origin[0] + distance * np.cos(bearing), origin[1] + distance * np.sin(bearing),
-                     heading)
+            start = (distance * np.cos(bearing), distance * np.sin(bearing), heading)
             motion = Pieces(start, ((straight, speed, 0.0), (duration + 1.0, speed, turn)))
             radius = np.hypot(length, width) / 2
             if _clear(motion, radius, placed, walls_y, sensor, times):
