@@ -118,3 +118,43 @@ def test_points_input_and_runtime_parameters(graph):
                      topic='points')
     tracks = cloud_to_array(reply)
     assert reply.header.frame_id == 'laser' and len(tracks) >= 2
+
+
+def test_moving_sensor_odometry_in_tracks_in_the_odometry_frame(graph):
+    """A generated scene with a moving sensor (1.5 s): odometry and scans in log order (a scan
+    waits in the node until the odometry of its last beam arrived); the tracks are in `odom`,
+    equal to the core's offline ones, and the car's track matches the truth."""
+    from nav_msgs.msg import Odometry
+
+    from data_association_ros.bag.lidar_eval import scans_from_messages
+    from data_association_ros.bag.lidar_motion import Pieces
+    from data_association_ros.bag.lidar_random_scene import CAR_LIDAR, Scene, SceneObject
+    scene = Scene([SceneObject(1, 4.5, 1.8, Pieces((14.0, -8.0, np.pi / 2),
+                                                   ((3.0, 6.0, 0.0),)))],
+                  Pieces((0.0, 0.0, 0.0), ((3.0, 5.0, 0.1),)), np.zeros((0, 2, 2)), CAR_LIDAR,
+                  1.5, 0)
+    messages = list(scene.messages())
+    odometry = graph.publisher(Odometry, 'odometry')
+    graph.wait_for_subscribers(['odometry'])
+    replies = graph.received['tracks']
+    sent = 0
+    for topic, msg, _ in messages:
+        if topic == '/odometry':
+            count = graph.node.odometry_count + 1
+            odometry.publish(msg)
+            assert graph.spin_until(lambda: graph.node.odometry_count >= count, 5.0)
+        elif topic == '/scan':
+            sent += 1
+            graph.publisher(LaserScan, 'scan').publish(msg)
+            assert graph.spin_until(lambda: len(replies) + len(graph.node.waiting) >= sent, 5.0)
+    assert graph.spin_until(lambda: len(replies) >= sent, 5.0) and graph.node.invalid == 0
+    assert {r.header.frame_id for r in replies} == {'odom'}
+    scans = scans_from_messages(messages)
+    estimates = [estimate_from_tracks(r) for r in replies]
+    offline, _ = run_offline(scans, TrackerConfig())
+    for live, core in zip(estimates, offline):
+        np.testing.assert_array_equal(live.ids, core.ids)
+        np.testing.assert_allclose(live.states, core.states, atol=1e-4, rtol=1e-5)
+    result = score(scans, estimates)[1]
+    assert result.position_rmse < 0.1 and result.heading_rmse_deg < 3.0, result
+    assert result.id_switches == 0 and result.coverage > 0.8, result

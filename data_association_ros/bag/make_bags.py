@@ -26,8 +26,11 @@ DEFAULT_DIRECTORY = Path(__file__).resolve().parents[2] / 'bags'
 
 def _raw_bags() -> dict:
     """Bags that are not association scenarios: name -> generator of (topic, msg, log time)."""
+    from .lidar_random_scene import scene_messages
     from .lidar_scene import lidar_messages
-    return {'lidar_two_cars': lidar_messages}
+    return {'lidar_two_cars': lidar_messages,
+            'lidar_f1tenth_race': scene_messages('lidar_f1tenth_race'),
+            'lidar_urban_random': scene_messages('lidar_urban_random')}
 
 
 def make_bag(name: str, directory: Path, data: Optional[Path] = None) -> Path:

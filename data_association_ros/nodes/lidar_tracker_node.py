@@ -3,7 +3,11 @@
 Subscribes `scan` (sensor_msgs/LaserScan) and `points` (sensor_msgs/PointCloud2 with `x`, `y` in
 scan order, the sensor at the frame's origin); each message is one scan for
 core.lidar.LidarObjectTracker (clusters, coarse + fine association, rigid correction, Kalman
-update).  Publishes, with the scan's header: `tracks` (PointCloud2, msg_adapters.lidar
+update).  With `odometry` (nav_msgs/Odometry: the sensor's pose; the scan frame is taken to be its
+child frame) the tracks live in the odometry's frame and each scan point is moved there with the
+sensor pose at its beam's time (pipelines.lidar_tracking: ego motion between scans and, with a
+LaserScan's time_increment, within one); without odometry in the scan's frame.  Publishes, with
+the scan's stamp and the tracks' frame: `tracks` (PointCloud2, msg_adapters.lidar
 TRACK_DTYPE: the reported tracks), `track_boundaries` (PointCloud2: id, x, y of each reported
 track's visible boundary points) and, when publish_markers, `track_markers` (MarkerArray);
 `/diagnostics` every second (scans tracked and dropped, live tracks, last step time).
@@ -16,23 +20,31 @@ from __future__ import annotations
 import time
 from typing import Optional
 
+from collections import deque
+
 from diagnostic_msgs.msg import DiagnosticArray
+from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan, PointCloud2
+from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
-from msg_adapters import PointCloudFormatError, diagnostics_message
+from msg_adapters import PointCloudFormatError, diagnostics_message, pose_from_odometry
 from msg_adapters.lidar import (boundaries_cloud, points_from_cloud, points_from_scan,
                                 track_markers, tracks_cloud)
 
 from ..core import InvalidInputError
-from ..core.lidar import PARAMETERS, LidarObjectTracker, TrackerConfig
+from ..core.lidar import PARAMETERS, TrackerConfig
 from ..core.parameters import ParameterSpec
+from ..pipelines.lidar_tracking import LidarTracking
 from ..pipelines.parameters import NodeParameter
 from .parameterized_node import ParameterizedNode, spin, usage_text
 
 RESTART_AFTER_S = 1.0
 """A scan this much older than the previous one restarts the tracker."""
+MAX_WAITING_SCANS = 8
+"""Scans kept waiting for the odometry of their time; beyond, the oldest is processed (with
+extrapolated odometry, or dropped)."""
 
 
 def _node_parameter(parameter) -> NodeParameter:
@@ -47,6 +59,10 @@ LIDAR_NODE_PARAMETERS = (
     *(_node_parameter(p) for p in PARAMETERS),
     NodeParameter('publish_markers', False, 'publish track_markers (costs time)',
                   spec=ParameterSpec('publish_markers', False, '', kind=bool)),
+    NodeParameter('max_odometry_extrapolation', 0.1, 'a scan is moved with odometry poses at most '
+                  'this far [s] beyond the newest (or before the oldest); further: dropped',
+                  spec=ParameterSpec('max_odometry_extrapolation', 0.1, '', low=0.0,
+                                     low_open=False)),
     NodeParameter('input_qos', 'sensor_data', 'QoS of scan and points: sensor_data (best '
                   'effort, as LiDAR drivers publish) or reliable', choices=('sensor_data',
                                                                            'reliable'),
@@ -59,11 +75,18 @@ class LidarTrackerNode(ParameterizedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('lidar_tracker_node', LIDAR_NODE_PARAMETERS, **kwargs)
-        self.tracker = LidarObjectTracker()
-        self.invalid = 0
+        self.tracking = LidarTracking()
+        self.tracker = self.tracking.tracker
+        self.invalid = self.invalid_odometry = self.odometry_count = 0
+        self.waiting: deque = deque()
+        self.step_ms: deque = deque(maxlen=100000)
         self.on_change()
         qos = qos_profile_sensor_data if self.config['input_qos'] == 'sensor_data' else \
             QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        # odometry first: the executor takes ready subscriptions in creation order, and a scan
+        # can only be processed once the odometry of its time is in
+        self.create_subscription(Odometry, 'odometry', self._on_odometry,
+                                 QoSProfile(depth=100, reliability=qos.reliability))
         self.create_subscription(LaserScan, 'scan', self._on_scan, qos)
         self.create_subscription(PointCloud2, 'points', self._on_points, qos)
         self.tracks_pub = self.create_publisher(PointCloud2, 'tracks', 10)
@@ -79,14 +102,42 @@ class LidarTrackerNode(ParameterizedNode):
     def on_change(self) -> None:
         self.tracker.configure(TrackerConfig(**{p.name: self.config[p.name]
                                                 for p in PARAMETERS}))
+        self.tracking.max_extrapolation = self.config['max_odometry_extrapolation']
+
+    def _on_odometry(self, msg: Odometry) -> None:
+        try:
+            pose = pose_from_odometry(msg).mean
+            self.tracking.add_odometry(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9,
+                                       pose, msg.header.frame_id)
+            self.odometry_count += 1
+        except InvalidInputError as error:
+            self.invalid_odometry += 1
+            self.get_logger().warning(f'odometry dropped: {error}', throttle_duration_sec=5.0)
+        while self.waiting and (self.tracking.covers(self.waiting[0][3])
+                                or len(self.waiting) > MAX_WAITING_SCANS):
+            self._process(*self.waiting.popleft()[:3])
 
     def _on_scan(self, msg: LaserScan) -> None:
-        self._process(msg.header, lambda: points_from_scan(msg))
+        end = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9 + max(
+            msg.time_increment, 0.0) * max(len(msg.ranges) - 1, 0)
+        self._wait_or_process(msg.header, lambda: points_from_scan(msg), msg.time_increment,
+                              end)
 
     def _on_points(self, msg: PointCloud2) -> None:
-        self._process(msg.header, lambda: points_from_cloud(msg))
+        self._wait_or_process(msg.header, lambda: points_from_cloud(msg), 0.0,
+                              msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
 
-    def _process(self, header, convert) -> None:
+    def _wait_or_process(self, header, convert, time_increment: float, end: float) -> None:
+        """Process the scan, or, when odometry is used and has not reached the scan's last
+        beam time `end` [s] yet, keep it until it has (at most MAX_WAITING_SCANS kept)."""
+        if self.waiting or (len(self.tracking.odometry) and not self.tracking.covers(end)):
+            self.waiting.append((header, convert, time_increment, end))
+            while len(self.waiting) > MAX_WAITING_SCANS:
+                self._process(*self.waiting.popleft()[:3])
+            return
+        self._process(header, convert, time_increment)
+
+    def _process(self, header, convert, time_increment: float = 0.0) -> None:
         stamp = header.stamp.sec + header.stamp.nanosec * 1e-9
         try:
             points = convert()
@@ -94,10 +145,11 @@ class LidarTrackerNode(ParameterizedNode):
             if last is not None and stamp < last - RESTART_AFTER_S:
                 self.get_logger().warning(f'scan {last - stamp:.2f} s older than the last: '
                                           'tracker restarted')
-                self.tracker.reset()
+                self.tracking.reset()
             started = time.perf_counter()
-            tracks = self.tracker.step(points, stamp)
+            tracks = self.tracking.step(points, stamp, time_increment, header.frame_id)
             self.last_step_ms = (time.perf_counter() - started) * 1e3
+            self.step_ms.append(self.last_step_ms)
             self.scans += 1
         except (InvalidInputError, PointCloudFormatError) as error:
             self.invalid += 1
@@ -111,9 +163,11 @@ class LidarTrackerNode(ParameterizedNode):
             return
         spacing, most = self.tracker.config.boundary_spacing, \
             self.tracker.config.max_boundary_points
+        header = Header(stamp=header.stamp, frame_id=self.tracking.frame or header.frame_id)
         self.tracks_pub.publish(tracks_cloud(header, tracks, stamp))
         self.boundaries_pub.publish(boundaries_cloud(
-            header, [t.id for t in tracks], [t.boundary(spacing, most) for t in tracks]))
+            header, [t.id for t in tracks],
+            [t.boundary(spacing, most, self.tracker.sensor) for t in tracks]))
         if self.config['publish_markers']:
             self.markers_pub.publish(track_markers(header, tracks, stamp))
 
@@ -121,6 +175,7 @@ class LidarTrackerNode(ParameterizedNode):
     def publish_diagnostics(self) -> None:
         """One DiagnosticArray: scans tracked, scans dropped, live tracks, last step time."""
         values = {'scans': self.scans, 'scans_dropped': self.invalid,
+                  'odometry_dropped': self.invalid_odometry, 'frame': self.tracking.frame or '',
                   'tracks': len(self.tracker.tracks),
                   'last_step_ms': f'{self.last_step_ms:.2f}'}
         self.diagnostics_pub.publish(diagnostics_message(

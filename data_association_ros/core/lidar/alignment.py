@@ -81,7 +81,8 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
                              corner_points: np.ndarray, edges: list[EdgePoint],
                              centre: np.ndarray, pose_covariance: np.ndarray, sigma: float,
                              gate: float = 13.8, prior_sigmas=(1.0, 1.0, 0.5),
-                             iterations: int = 3) -> Correction:
+                             iterations: int = 3,
+                             sensor: np.ndarray = np.zeros(2)) -> Correction:
     """Gauss-Newton over (t_x, t_y, yaw) from 0 (see the module docstring).
 
     scan (K, 2), boundary (N, 2) points and pairs (n, 2) as from fine.match; corner_points
@@ -97,7 +98,7 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
     centre = np.asarray(centre, float)
     start, direction, length = faces(corner_points)
     normal = np.column_stack([direction[:, 1], -direction[:, 0]])
-    visible = visible_faces(corner_points)
+    visible = visible_faces(corner_points, sensor)
     s, b = scan[pairs[:, 0]], boundary[pairs[:, 1]]
     # faces through b (distance to the segment ~0), the one whose line is nearest to s
     along = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], direction)

@@ -26,16 +26,17 @@ def cluster_consecutive(points: np.ndarray, gap: float, min_points: int = 1) -> 
     return labels
 
 
-def cluster_ends(points: np.ndarray, labels: np.ndarray,
-                 jump: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
+                 sensor: np.ndarray = np.zeros(2)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(first and last point index (C, 2), which end is an object edge (C, 2) bool, which end is
     occluded (C, 2) bool) of clusters 0..C-1 of `labels` (from cluster_consecutive on
-    scan-ordered points seen from the origin).
+    scan-ordered points seen from `sensor` (2,), default the origin).
 
     An end is an edge (the object's outline really ends there) when the neighbouring return
     outside the cluster is missing (nothing behind) or farther by more than `jump` [m]; it is
     occluded when that return is nearer by more than `jump` (something in front hides the
-    rest); neither when within `jump` or when the end is the first or last beam of the scan."""
+    rest), or when it is the first or last beam of the scan (the field of view cuts it);
+    neither when within `jump`."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     count = int(labels.max()) + 1 if labels.size else 0
     index = np.arange(len(labels))
@@ -49,8 +50,9 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray,
     in_scan = (neighbours >= 0) & (neighbours < len(labels))
     clipped = np.clip(neighbours, 0, max(len(labels) - 1, 0))
     with np.errstate(invalid='ignore'):
-        ranges = np.hypot(points[:, 0], points[:, 1])
+        ranges = np.hypot(points[:, 0] - sensor[0], points[:, 1] - sensor[1])
         neighbour_range = ranges[clipped]
         step = neighbour_range - ranges[ends]
     missing = ~np.isfinite(neighbour_range)
-    return ends, in_scan & (missing | (step > jump)), in_scan & ~missing & (step < -jump)
+    return ends, in_scan & (missing | (step > jump)), \
+        ~in_scan | (~missing & (step < -jump))

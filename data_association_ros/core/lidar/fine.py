@@ -41,9 +41,11 @@ def boundary_covariance(boundary: np.ndarray, centre: np.ndarray, pose_covarianc
 def match(scan: np.ndarray, boundary: np.ndarray, joint: np.ndarray, method: str = 'jcbb_points',
           jnis: str = 'cartesian', point_sigma: float = 0.05, bearing_sigma: float = 0.01,
           nearest_cutoff: float = 0.3, gate_probability: float = 0.99,
-          time_budget_ms: float = 0.0, max_nodes: int = 500) -> np.ndarray:
+          time_budget_ms: float = 0.0, max_nodes: int = 500,
+          sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
     """Pairs (n, 2) int: (scan index, boundary index), for scan points (K, 2) and boundary points
-    (N, 2) with joint covariance `joint` (2N, 2N) (see the module docstring)."""
+    (N, 2) with joint covariance `joint` (2N, 2N) (see the module docstring); polar jNIS: range
+    and bearing from `sensor` (2,)."""
     if not len(scan) or not len(boundary):
         return np.zeros((0, 2), dtype=int)
     if method == 'nearest':
@@ -56,12 +58,13 @@ def match(scan: np.ndarray, boundary: np.ndarray, joint: np.ndarray, method: str
     state[3:, 3:] = joint
     landmarks = Landmarks(np.arange(len(boundary)), boundary)
     if jnis == 'polar':
-        values = np.column_stack([np.hypot(scan[:, 0], scan[:, 1]),
-                                  np.arctan2(scan[:, 1], scan[:, 0])])
+        relative = scan - sensor
+        values = np.column_stack([np.hypot(relative[:, 0], relative[:, 1]),
+                                  np.arctan2(relative[:, 1], relative[:, 0])])
         noise = np.diag([point_sigma ** 2, bearing_sigma ** 2])
         observations = Observations(values, np.broadcast_to(noise, (len(scan), 2, 2)),
                                     'range_bearing')
-        pose = _ORIGIN
+        pose = RobotPose(np.array([sensor[0], sensor[1], 0.0])) if np.any(sensor) else _ORIGIN
     else:
         observations = Observations(scan, np.broadcast_to(point_sigma ** 2 * np.eye(2),
                                                           (len(scan), 2, 2)), 'point_map')

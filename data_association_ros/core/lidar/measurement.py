@@ -25,6 +25,26 @@ def transition(dt: float) -> np.ndarray:
     return f
 
 
+def turning_prediction(state: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(predicted state (6,), Jacobian F (6, 6)) of the velocity turning with the yaw rate w
+    (a car on a curve): v' = R(w dt) v, position += R(w dt / 2) v dt, yaw += w dt; for w = 0
+    it is transition(dt)."""
+    from .shape import rotation
+    w, v = state[5], state[3:5]
+    half, full = rotation(w * dt / 2), rotation(w * dt)
+    j = np.array([[0.0, -1.0], [1.0, 0.0]])
+    predicted = state.copy()
+    predicted[:2] = state[:2] + half @ v * dt
+    predicted[2] = state[2] + w * dt
+    predicted[3:5] = full @ v
+    f = transition(dt)
+    f[0:2, 3:5] = half * dt
+    f[0:2, 5] = dt * dt / 2 * (j @ half @ v)
+    f[3:5, 3:5] = full
+    f[3:5, 5] = dt * (j @ full @ v)
+    return predicted, f
+
+
 def process_noise(dt: float, accel_sigma: float, yaw_accel_sigma: float) -> np.ndarray:
     """Q (6, 6) of white (angular) acceleration with spectral densities accel_sigma^2
     [m^2/s^3] and yaw_accel_sigma^2 [rad^2/s^3]: per (position, velocity) pair

@@ -4,7 +4,8 @@
 Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 1. cluster consecutive points (clustering.cluster_consecutive) and flag each cluster end that is
    an object edge or occluded (clustering.cluster_ends);
-2. predict every track to t (measurement.transition, process_noise);
+2. predict every track to t, its velocity turning with its yaw rate (measurement.
+   turning_prediction, process_noise);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
    centroid in the object frame, moved with the predicted pose; covariance A P A^T +
    coarse_sigma^2 I) by the registry associator `coarse`; a cluster left over whose centroid lies
@@ -17,19 +18,25 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    ransac); form the fictitious measurement over the time since the track's last update and its
    noise (measurement); Kalman update with [x, y, yaw] (or, velocity_measurement, all six terms
    as the seed), unless it fails the filter's chi-square gate;
-6. the heading follows the velocity (yaw + pi when they disagree above 1 m/s); the rectangle grows
-   or moves to contain the matched points (shape.contain);
+6. the velocity settles the heading (heading_turn): when it points backwards (pi) or across
+   (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
+   turned round, or fitted anew along the velocity (shape.fit_at); a track is reported only once
+   its heading is settled so (or known too slow to tell, or after SETTLE_TIME); the rectangle
+   grows or moves to contain the matched points (shape.contain);
 7. a cluster no track took, or taken by a coasting track that it could not correct, starts a
-   track if it has min_pairs points (shape.fit_rectangle; velocity 0, uncertain); a track not
+   track if it has min_pairs points and is not larger than max_size_ratio x the size class's
+   prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
    found again), as is a track not updated for more than max_age seconds.
 
 Added to the seed (why: README "LiDAR object tracking"): the boundary is a rectangle model with
-an estimated extent (completed by prior_length / prior_width on the hidden side) sampled on its
+an estimated extent (completed by the size class's priors on the hidden side) sampled on its
 visible faces, instead of accumulated scan points whose bounding box drifts and is not the
 object's centre when only part of it was seen; the point_to_line correction; the correction's
-covariance in R; the velocity left to the filter by default.  The LiDAR is assumed static (the
-scan frame is the tracking frame).
+covariance in R; the velocity left to the filter by default.  The tracking frame is the caller's:
+points and the sensor position (step's `sensor`) in that frame (pipelines.lidar_tracking moves a
+moving sensor's scans into the odometry frame); per-point times (`offsets`) move an object's
+points back to the scan's stamp with its predicted velocity.
 """
 from __future__ import annotations
 
@@ -48,16 +55,23 @@ from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigi
 from .clustering import cluster_consecutive, cluster_ends
 from .fine import boundary_covariance, match
 from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
-                          transition)
+                          turning_prediction)
 from .parameters import TrackerConfig
-from .shape import contain, corners, fit_rectangle, rotation, sample_visible
+from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
 MAX_COORDINATE = 1e5
 """Points farther than this [m] on either axis count as no return."""
-FLIP_SPEED = 1.0
-"""Above this speed [m/s] the heading is turned by pi when it points against the velocity."""
+FLIP_RATE = 0.25
+"""Objects faster than this many of their prior lengths per second (1.1 m/s for a car, 0.14 m/s
+for an F1Tenth car) are fast enough for their velocity to tell the heading (heading_turn)."""
+SIGMAS_TO_TURN, VOTES_TO_TURN = 1.0, 3
+"""The heading is turned (or confirmed) when the velocity points elsewhere (or the same way) by
+more than 1 of its stds (the filter's velocity std is about 0.7 m/s at 40 Hz with accel_sigma 4,
+far more than its actual error) on 3 updates in a row."""
+SETTLE_TIME = 0.5
+"""A track whose heading the velocity has not settled is reported after this time [s]."""
 
 __all__ = ['LidarObjectTracker', 'ObjectTrack', 'fictitious_measurement', 'rotation']
 
@@ -78,17 +92,22 @@ class ObjectTrack:
     updated: float = 0.0
     last: np.ndarray = field(default_factory=lambda: np.zeros(3))
     matched: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    settled: bool = False
+    born: float = 0.0
+    vote: float = 0.0
+    votes: int = 0
 
     def corners(self, state: Optional[np.ndarray] = None) -> np.ndarray:
         """The rectangle's corners (4, 2) at the track's (or the given) state."""
         x = self.filter.x if state is None else state
         return corners(x[:2], x[2], self.length, self.width)
 
-    def boundary(self, spacing: float, most: int) -> np.ndarray:
-        """Boundary points (n, 2): the faces visible from the sensor, every <= spacing [m], the
-        spacing widened so that there are at most about `most`."""
+    def boundary(self, spacing: float, most: int,
+                 sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
+        """Boundary points (n, 2): the faces visible from the sensor (2,), every <= spacing [m],
+        the spacing widened so that there are at most about `most`."""
         perimeter = 2 * (self.length + self.width)
-        return sample_visible(self.corners(), max(spacing, perimeter / 2 / most))
+        return sample_visible(self.corners(), max(spacing, perimeter / 2 / most), sensor)
 
     def anchor_world(self) -> np.ndarray:
         """The predicted cluster centroid (2,)."""
@@ -103,6 +122,7 @@ class LidarObjectTracker:
         self.config = config or TrackerConfig()
         self.tracks: list[ObjectTrack] = []
         self.time: Optional[float] = None
+        self.sensor = np.zeros(2)
         self._next_id = 1
 
     def configure(self, config: TrackerConfig) -> None:
@@ -114,29 +134,39 @@ class LidarObjectTracker:
         self.tracks, self.time = [], None
 
     def reported(self) -> list[ObjectTrack]:
-        """Tracks updated on at least min_hits scans."""
-        return [t for t in self.tracks if t.hits >= self.config.min_hits]
+        """Tracks updated on at least min_hits scans whose heading is settled (heading_turn) or
+        that have been tracked for SETTLE_TIME."""
+        return [t for t in self.tracks if t.hits >= self.config.min_hits
+                and (t.settled or self.time - t.born >= SETTLE_TIME)]
 
-    def step(self, points: np.ndarray, time: float) -> list[ObjectTrack]:
-        """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return).
-        Raises InvalidInputError when time is not after the previous scan's.  Returns the
-        reported tracks."""
+    def step(self, points: np.ndarray, time: float, sensor: Optional[np.ndarray] = None,
+             offsets: Optional[np.ndarray] = None) -> list[ObjectTrack]:
+        """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
+        tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
+        [s] after `time` (default 0; an object's points are moved back by its predicted
+        velocity times their offset).  Raises InvalidInputError when time is not after the
+        previous scan's.  Returns the reported tracks."""
         if not np.isfinite(time) or (self.time is not None and time <= self.time):
             raise InvalidInputError(f'time: {time!r} is not after the previous scan '
                                     f'({self.time!r})')
         config = self.config
         points = np.asarray(points, dtype=float).reshape(-1, 2)
+        self.sensor = np.zeros(2) if sensor is None else np.asarray(sensor, float).reshape(2)
+        self._offsets = np.zeros(len(points)) if offsets is None else \
+            np.asarray(offsets, float).reshape(len(points))
         with np.errstate(invalid='ignore'):
             points = np.where(np.abs(points) <= MAX_COORDINATE, points, np.nan)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
-        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump)
+        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
+        self._occluded = occluded
         count = len(ends)
         dt = None if self.time is None else time - self.time
         before, self.time = self.time, time
         for track in self.tracks:
-            track.filter.f = transition(dt)
+            predicted, track.filter.f = turning_prediction(track.filter.x, dt)
             track.filter.q = process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)
             track.filter.predict()
+            track.filter.x = predicted
             track.matched = np.zeros((0, 2))
         members = self._coarse(points, labels, count)
         free = np.ones(count, dtype=bool)
@@ -153,7 +183,9 @@ class LidarObjectTracker:
                 track.last = track.filter.x[:3].copy()
             if track.updated == time or not coasting:
                 free[clusters] = False
+        largest = config.max_size_ratio * max(config.priors())
         self.tracks = [t for t in self.tracks if time - t.updated <= config.max_age
+                       and max(t.length, t.width) <= largest
                        and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
@@ -242,17 +274,22 @@ class LidarObjectTracker:
         or the measurement outside the filter's gate); InvalidInputError or LinAlgError when
         the pairs are degenerate."""
         config = self.config
-        scan = points[np.isin(labels, clusters)]
-        sample = scan[evenly(len(scan), config.max_match_points)]
         x = track.filter.x
-        boundary = track.boundary(config.boundary_spacing, config.max_boundary_points)
+        member = np.isin(labels, clusters)
+        if np.any(self._offsets[member]):  # the object moved while the beam turned
+            points = points.copy()
+            points[member] -= self._offsets[member, None] * x[3:5]
+        scan = points[member]
+        sample = scan[evenly(len(scan), config.max_match_points)]
+        boundary = track.boundary(config.boundary_spacing, config.max_boundary_points,
+                                  self.sensor)
         low, high = sample.min(axis=0) - 1.0, sample.max(axis=0) + 1.0
         near = np.all((boundary >= low) & (boundary <= high), axis=1)
         boundary = boundary[near]
         joint = boundary_covariance(boundary, x[:2], track.filter.p[:3, :3], config.point_sigma)
         pairs = match(sample, boundary, joint, config.fine, config.jnis, config.point_sigma,
                       config.bearing_sigma, config.nearest_cutoff, config.gate_probability,
-                      config.time_budget_ms, config.max_nodes)
+                      config.time_budget_ms, config.max_nodes, self.sensor)
         if len(pairs) < config.min_pairs:
             return False
         correction = self._correction(track, sample, boundary, pairs, points, clusters, ends,
@@ -271,12 +308,29 @@ class LidarObjectTracker:
             return False
         track.filter.update(z[rows])
         x = track.filter.x
-        speed = np.hypot(x[3], x[4])
-        if speed > FLIP_SPEED and np.cos(x[2] - np.arctan2(x[4], x[3])) < 0:
+        turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
+                                     FLIP_RATE * max(config.priors()), SIGMAS_TO_TURN)
+        told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= FLIP_RATE * max(
+            config.priors()))  # the velocity told (else: known to be too slow to tell)
+        if told:
+            track.votes = track.votes + 1 if turn == track.vote else 1
+            track.vote = turn
+            if track.votes < VOTES_TO_TURN:
+                turn, settled = 0.0, False
+        else:
+            track.votes = 0
+        track.settled = track.settled or settled
+        track.matched = sample[pairs[:, 0]]
+        if abs(turn) > 3:  # pointing backwards: the same rectangle, turned round
             x[2] += np.pi
             track.anchor = -track.anchor
+        elif turn:  # the axes were mistaken: the rectangle anew along the velocity
+            hidden = self._occluded[clusters[0]] if len(clusters) == 1 else None
+            centre, yaw, length, width = fit_at(scan, x[2] + turn, *self.config.priors(),
+                                                sensor=self.sensor, occluded=hidden)
+            x[:3] = [centre[0], centre[1], yaw]
+            track.length, track.width = length, width
         x[2] = wrap_angle(x[2])
-        track.matched = sample[pairs[:, 0]]
         self._grow(track, track.matched, scan)
         return True
 
@@ -289,7 +343,7 @@ class LidarObjectTracker:
             return point_to_line_correction(
                 sample, boundary, pairs, track.corners(), self._edges(points, clusters, ends,
                                                                        edges),
-                x[:2], track.filter.p[:3, :3], config.point_sigma)
+                x[:2], track.filter.p[:3, :3], config.point_sigma, sensor=self.sensor)
         return rigid_correction(sample, boundary, pairs, x[:2], config.transform == 'ransac',
                                 config.ransac_threshold)
 
@@ -299,22 +353,54 @@ class LidarObjectTracker:
         r = rotation(x[2])
         body = (matched - x[:2]) @ r
         shift, track.length, track.width = contain(body, track.length, track.width,
-                                                   -x[:2] @ r, 2 * self.config.point_sigma)
+                                                   (self.sensor - x[:2]) @ r,
+                                                   2 * self.config.point_sigma)
         x[:2] = x[:2] + r @ shift
         track.anchor = (scan.mean(axis=0) - x[:2]) @ r
 
     def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float) -> None:
         config = self.config
-        centre, yaw, length, width = fit_rectangle(cluster, config.prior_length,
-                                                   config.prior_width, occluded=occluded)
+        prior_length, prior_width = config.priors()
+        largest = config.max_size_ratio * max(prior_length, prior_width)
+        if np.hypot(*(cluster[-1] - cluster[0])) > np.sqrt(2) * largest:
+            return  # its ends are farther apart than the diagonal of any object this size
+        centre, yaw, length, width = fit_rectangle(cluster, prior_length, prior_width,
+                                                   sensor=self.sensor,
+                                                   occluded=occluded)
+        if max(length, width) > config.max_size_ratio * max(prior_length, prior_width):
+            return  # a wall or a building, not an object of this size class
         x0 = np.array([centre[0], centre[1], yaw, 0.0, 0.0, 0.0])
         p0 = np.diag(np.square(INITIAL_SIGMAS))
         track = ObjectTrack(self._next_id, KalmanFilter(x0, p0, np.eye(6), np.eye(6), np.eye(6),
                                                         np.eye(6)), length, width,
                             (cluster.mean(axis=0) - centre) @ rotation(yaw), updated=time,
-                            last=x0[:3].copy())
+                            last=x0[:3].copy(), born=time)
         self.tracks.append(track)
         self._next_id += 1
+
+
+def heading_turn(state: np.ndarray, velocity_covariance: np.ndarray,
+                 flip_speed: float = 1.0, sigmas: float = 3.0) -> tuple[float, bool]:
+    """(turn, settled) from the velocity state[3:5] (covariance (2, 2)) in the rectangle's axes:
+    v_u along the heading state[2], v_n across it, their stds s_u, s_n.  The larger component
+    tells the turn: v_u > 0 none, v_u < 0 pi (pointing backwards), v_n +-pi/2 (the axes were
+    mistaken: a rectangle fit is ambiguous by 90 deg, a car does not drive sideways); it counts
+    when it exceeds flip_speed [m/s] and `sigmas` of its stds, else the turn is 0.  settled: the
+    velocity told the heading, or the object is known to be too slow to tell (speed and
+    `sigmas` stds below flip_speed: the shape is all there is)."""
+    c, s = np.cos(state[2]), np.sin(state[2])
+    u, n = np.array([c, s]), np.array([-s, c])
+    v_u, v_n = float(u @ state[3:5]), float(n @ state[3:5])
+    s_u = float(np.sqrt(max(u @ velocity_covariance @ u, 0.0)))
+    s_n = float(np.sqrt(max(n @ velocity_covariance @ n, 0.0)))
+    along = abs(v_u) >= abs(v_n)
+    value, sigma = (v_u, s_u) if along else (v_n, s_n)
+    if abs(value) <= max(flip_speed, sigmas * sigma):
+        slow = np.hypot(v_u, v_n) < flip_speed and sigmas * max(s_u, s_n) < flip_speed
+        return 0.0, bool(slow)
+    if along:
+        return (0.0 if value > 0 else np.pi), True
+    return float(np.copysign(np.pi / 2, value)), True
 
 
 def evenly(count: int, most: int) -> np.ndarray:

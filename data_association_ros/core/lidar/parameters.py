@@ -11,6 +11,18 @@ from ..parameters import ParameterSpec
 from .alignment import TRANSFORMS
 from .fine import FINE_METHODS, JNIS_COORDINATES
 
+SIZE_CLASSES = {'car': (4.5, 1.8), 'f1tenth': (0.55, 0.30), 'pedestrian': (0.6, 0.6)}
+"""size_class -> (prior length, prior width) [m]: a full-size car, a 1/10-scale F1Tenth car, a
+person (shoulders and stride)."""
+PRESETS = {
+    'car': {},
+    'f1tenth': {'size_class': 'f1tenth', 'fine': 'nearest', 'nearest_cutoff': 0.1,
+                'boundary_spacing': 0.05, 'max_size_ratio': 2.0},
+}
+"""Parameter sets per setting (config/lidar_<name>.yaml): F1Tenth racing pairs points with the
+nearest boundary point within 0.1 m (JCBB takes most of a 25 ms scan period on this 2-core
+machine; nearest is about 2-3x faster here) on a boundary sampled every 5 cm (a 0.55 m car), and
+takes anything longer than 1.1 m for the track's walls."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
 
 
@@ -73,8 +85,15 @@ PARAMETERS = (
     _float('boundary_spacing', 0.1, 'spacing of the boundary points along the rectangle [m]'),
     _int('max_boundary_points', 50, 'at most about this many boundary points (the spacing '
          'widens for large objects)', 4, 100000),
-    _float('prior_length', 4.5, 'assumed length of an object whose length is not seen [m]'),
-    _float('prior_width', 1.8, 'assumed width of an object whose width is not seen [m]'),
+    Choice('size_class', 'car', 'assumed size of an object until it is seen (length x width): '
+           'car 4.5 x 1.8 m, f1tenth 0.55 x 0.30 m, pedestrian 0.6 x 0.6 m, custom: prior_length '
+           'x prior_width', tuple(SIZE_CLASSES) + ('custom',)),
+    _float('prior_length', 4.5, 'size_class custom: assumed length of an object whose length is '
+           'not seen [m]'),
+    _float('prior_width', 1.8, 'size_class custom: assumed width of an object whose width is not '
+           'seen [m]'),
+    _float('max_size_ratio', 4.0, 'a cluster or track longer than this times the prior length '
+           'is background (walls), not tracked'),
     _float('ransac_threshold', 0.1, 'transform ransac: inlier distance [m]'),
     _float('accel_sigma', 4.0, 'process noise: white acceleration [m/s^2/sqrt(Hz)]'),
     _float('yaw_accel_sigma', 4.0, 'process noise: white angular acceleration '
@@ -115,8 +134,10 @@ class TrackerConfig:
     min_pairs: int = 5
     boundary_spacing: float = 0.1
     max_boundary_points: int = 50
+    size_class: str = 'car'
     prior_length: float = 4.5
     prior_width: float = 1.8
+    max_size_ratio: float = 4.0
     ransac_threshold: float = 0.1
     accel_sigma: float = 4.0
     yaw_accel_sigma: float = 4.0
@@ -139,6 +160,13 @@ class TrackerConfig:
         if unknown:
             raise InvalidInputError(f'{unknown[0]}: not a LiDAR tracker parameter')
         return replace(self, **values)
+
+    def priors(self) -> tuple[float, float]:
+        """(length, width) [m] assumed until seen: the size class's, or prior_length /
+        prior_width for custom."""
+        if self.size_class == 'custom':
+            return self.prior_length, self.prior_width
+        return SIZE_CLASSES[self.size_class]
 
     def measurement_sigmas(self) -> tuple[float, ...]:
         """Floor of R's standard deviations for [x, y, yaw, vx, vy, yaw_rate]."""

@@ -21,10 +21,16 @@ def rectangle_segments(centre: np.ndarray, yaw: float, length: float,
 def raycast(origin: np.ndarray, angles: np.ndarray, segments: np.ndarray,
             max_range: float) -> tuple[np.ndarray, np.ndarray]:
     """(ranges (R,), index of the segment hit (R,), -1 for none) of rays at `angles` [rad, world
-    frame] from `origin` (2,) against `segments` (S, 2, 2); inf beyond max_range or no hit."""
+    frame] from `origin` (2,) against `segments` (S, 2, 2); inf beyond max_range or no hit.
+    Per ray (a moving sensor, a scene that moves while the beam turns): origin (R, 2) and/or
+    segments (R, S, 2, 2)."""
     d = np.column_stack([np.cos(angles), np.sin(angles)])[:, None, :]  # (R, 1, 2)
-    p, e = segments[None, :, 0, :], (segments[:, 1] - segments[:, 0])[None]  # (1, S, 2)
-    w = p - origin
+    segments = np.asarray(segments, dtype=float)
+    if segments.ndim == 3:
+        segments = segments[None]
+    p, e = segments[..., 0, :], segments[..., 1, :] - segments[..., 0, :]  # (1|R, S, 2)
+    origin = np.asarray(origin, dtype=float)
+    w = p - (origin[:, None, :] if origin.ndim == 2 else origin)
 
     def cross(a, b):
         return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]

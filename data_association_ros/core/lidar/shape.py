@@ -93,20 +93,32 @@ def fit_rectangle(points: np.ndarray, prior_length: float, prior_width: float,
     order).
 
     Orientation by closeness_yaw.  The axis along which the cluster spans more than
-    prior_width + 0.5 m is the length (heading) axis; when neither does (a rear or front face, or
-    a piece of one) the longer span is a width face and the heading is perpendicular to it.
+    prior_width + (prior_length - prior_width) / 5 (2.3 m for a car) is the length (heading)
+    axis; when neither does (a rear or front face, or a piece of one) the longer span is a width
+    face and the heading is perpendicular to it.
     Extents below the priors are completed to the priors on the side away from the sensor, or,
     along an axis where exactly one cluster end (`occluded` (2,) bool: first, last point) is
     hidden by something in front and lies at an extreme of the span, towards that end.
-    The heading points away from the sensor (its sign is settled later by the velocity).
+    The heading points away from the sensor (its sign, and when the object is seen from an
+    angle that fools the rule, its axis, are settled later by the velocity).
     """
     angle = closeness_yaw(points)
     axes = rotation(angle)  # columns: axis a, axis b
     local = points @ axes
     spans = np.ptp(local, axis=0)
     long_axis = 0 if spans[0] >= spans[1] else 1
-    heading = long_axis if spans[long_axis] > prior_width + 0.5 else 1 - long_axis
-    yaw = angle + (np.pi / 2 if heading == 1 else 0.0)
+    heading = long_axis if spans[long_axis] > prior_width + (prior_length - prior_width) / 5 \
+        else 1 - long_axis
+    return fit_at(points, angle + (np.pi / 2 if heading == 1 else 0.0), prior_length,
+                  prior_width, sensor, occluded)
+
+
+def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: float,
+           sensor: np.ndarray = np.zeros(2), occluded: Optional[np.ndarray] = None
+           ) -> tuple[np.ndarray, float, float, float]:
+    """(centre (2,), yaw, length, width) of the rectangle along `yaw` (or yaw + pi: pointing
+    away from the sensor) around the cluster (K, 2, scan order), completed to the priors as in
+    fit_rectangle."""
     u = rotation(yaw)
     body = points @ u  # (along heading, across)
     away = u[:, 0] @ (points.mean(axis=0) - sensor)

@@ -1,0 +1,185 @@
+"""LiDAR tracking beyond lidar_two_cars (issue 21): generated scenes, any heading, a moving sensor
+with odometry, size classes, truth matched by header stamp."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from data_association_ros.bag.lidar_eval import run_offline, scans_from_messages, score
+from data_association_ros.bag.lidar_motion import Pieces, Stadium
+from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, Scene,
+                                                         SceneObject, race_scene, random_scene)
+from data_association_ros.bag.lidar_seeds import configuration
+from data_association_ros.core.lidar import LidarObjectTracker, TrackerConfig
+from data_association_ros.core.lidar.object_tracker import heading_turn
+from data_association_ros.pipelines.lidar_tracking import PoseHistory, to_frame
+
+NO_WALLS = np.zeros((0, 2, 2))
+
+
+def one_car_scene(start, speed=8.0, sensor=None, duration=2.0, size=(4.5, 1.8)):
+    return Scene([SceneObject(1, *size, Pieces(start, ((duration + 1, speed, 0.0),)))], sensor,
+                 NO_WALLS, CAR_LIDAR, duration, 0)
+
+
+def scores_of(scene, config=TrackerConfig()):
+    scans = scans_from_messages(scene.messages())
+    estimates, _ = run_offline(scans, config)
+    return score(scans, estimates)
+
+
+def test_car_crossing_behind_the_sensors_side_has_the_right_heading():
+    """Issue 21's failure: a car crossing at 90 deg to the sensor's x axis (x = -12 m, from
+    y = 8 m, 8 m/s along +y), entering the 270 deg field of view at its edge, was tracked with
+    its box turned by 90 deg the whole run: measured before the fix heading RMSE 89.9 deg,
+    position 1.53 m; after: 0.16 deg, 0.02 m, coverage 95 % (reported once the velocity settled
+    its heading)."""
+    result = scores_of(one_car_scene((-12.0, 8.0, np.pi / 2)))[1]
+    assert result.heading_rmse_deg < 3.0 and result.position_rmse < 0.1, result
+    assert result.id_switches == 0 and result.coverage > 0.8, result
+
+
+def test_oncoming_car_starts_pointing_the_right_way():
+    """Seen head-on, a fit points away from the sensor; the velocity turns it round before the
+    track is reported (reported tracks never point backwards here)."""
+    scene = one_car_scene((20.0, 1.0, np.pi))
+    scans = scans_from_messages(scene.messages())
+    estimates, _ = run_offline(scans, TrackerConfig())
+    errors = [abs(np.angle(np.exp(1j * (e.states[0, 2] - np.pi)))) for e in estimates
+              if len(e.ids)]
+    assert len(errors) > 60 and max(errors) < np.deg2rad(5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-np.pi, np.pi), st.floats(0.5, 3.0), st.floats(0.5, 3.0))
+def test_heading_turn_is_the_nearest_quarter_to_the_velocity(heading, speed, direction):
+    """Brute force: the turn is the multiple of pi/2 nearest to the velocity's angle from the
+    heading, whenever the speed is well above its std and the flip speed."""
+    course = heading + direction * (1 if speed > 1.5 else -1)
+    state = np.array([0, 0, heading, 4 * speed * np.cos(course), 4 * speed * np.sin(course), 0])
+    turn, settled = heading_turn(state, 0.01 * np.eye(2))
+    quarters = np.arange(-2, 3) * np.pi / 2
+    gap = np.abs(np.angle(np.exp(1j * (course - heading - quarters))))
+    if np.sort(gap)[1] - np.sort(gap)[0] > 1e-6:  # not exactly between two quarters
+        expected = quarters[np.argmin(gap)]
+        assert settled
+        assert np.isclose(np.angle(np.exp(1j * (turn - expected))), 0.0), (turn, expected)
+    slow, known = heading_turn(np.array([0, 0, heading, 0.1, 0.0, 0]), 0.01 * np.eye(2))
+    assert slow == 0.0 and known  # too slow to tell, and surely so: the shape decides
+
+
+def test_pose_history_interpolates_and_refuses_to_guess_far():
+    history = PoseHistory()
+    history.add(1.0, [0.0, 0.0, np.pi - 0.1])
+    history.add(2.0, [2.0, 4.0, -np.pi + 0.1])  # yaw crosses +-pi: +0.2 rad, not -6.08
+    poses = history.at(np.array([1.5, 2.05]), 0.1)
+    np.testing.assert_allclose(poses[0], [1.0, 2.0, np.pi], atol=1e-12)
+    np.testing.assert_allclose(poses[1, :2], [2.1, 4.2], atol=1e-12)
+    with pytest.raises(Exception, match='not covered'):
+        history.at(np.array([2.5]), 0.1)
+    np.testing.assert_allclose(to_frame(np.array([[1.0, 0.0]]), np.array([1.0, 2.0, np.pi / 2])),
+                               [[1.0, 3.0]], atol=1e-12)
+
+
+def test_moving_sensor_tracks_in_the_odometry_frame():
+    """The sensor drives at 6 m/s along x, a car drives across in front of it: the tracks live
+    in odom (the truth's frame) and match it as well as with a static sensor.  Without the
+    within-scan compensation (time_increment ignored) the sensor moves 11 cm during a scan.
+    Measured: position 0.017 m, heading 0.2 deg, velocity 0.16 m/s (position 0.071 m ignoring
+    time_increment)."""
+    sensor = Pieces((0.0, 0.0, 0.0), ((4.0, 6.0, 0.0),))
+    scene = one_car_scene((14.0, -10.0, np.pi / 2), speed=6.0, sensor=sensor, duration=2.5)
+    scans = scans_from_messages(scene.messages())
+    assert scans[0].odometry and scans[0].time_increment > 0
+    estimates, _ = run_offline(scans, TrackerConfig())
+    result = score(scans, estimates)[1]
+    assert result.position_rmse < 0.04 and result.heading_rmse_deg < 3.0, result
+    assert result.velocity_rmse < 0.5 and result.id_switches == 0, result
+    for scan in scans:
+        scan.time_increment = 0.0
+    uncompensated = score(scans, run_offline(scans, TrackerConfig())[0])[1]
+    assert uncompensated.position_rmse > 2 * result.position_rmse
+
+
+def test_size_class_priors_and_extent_converging_to_what_is_seen():
+    """An F1Tenth car (0.58 m x 0.29 m) seen side-on and then from behind as it passes: the
+    estimate starts from the f1tenth prior (0.55 x 0.30) and ends within 2 cm of its size."""
+    assert TrackerConfig(size_class='pedestrian').priors() == (0.6, 0.6)
+    assert TrackerConfig(size_class='custom', prior_length=2.0, prior_width=1.0).priors() == \
+        (2.0, 1.0)
+    scene = Scene([SceneObject(1, 0.58, 0.29, Pieces((0.8, -2.0, np.pi / 2),
+                                                     ((3.0, 1.5, 0.0),)))],
+                  None, NO_WALLS, F1TENTH_LIDAR, 2.0, 0, 'f1tenth')
+    scans = scans_from_messages(scene.messages())
+    tracker = LidarObjectTracker(configuration('f1tenth_static', TrackerConfig()))
+    for scan in scans:
+        tracks = tracker.step(scan.points, scan.time)
+    assert len(tracks) == 1
+    assert abs(tracks[0].length - 0.58) < 0.02 and abs(tracks[0].width - 0.29) < 0.02
+
+
+def test_generated_scenes_are_reproducible_and_keep_objects_apart():
+    a, b = random_scene(3, 'car', moving=True), random_scene(3, 'car', moving=True)
+    assert [o.length for o in a.objects] == [o.length for o in b.objects]
+    assert 1 <= len(a.objects) <= 5 and a.frame == 'odom' and random_scene(3).frame == 'laser'
+    times = np.arange(0.0, a.duration, 0.05)
+    for i, first in enumerate(a.objects):
+        for second in a.objects[i + 1:]:
+            gap = np.hypot(*(first.motion.poses(times)[:, :2]
+                             - second.motion.poses(times)[:, :2]).T)
+            assert gap.min() > (np.hypot(first.length, first.width)
+                                + np.hypot(second.length, second.width)) / 2
+    track = Stadium(14.0, 4.0)
+    s = np.linspace(0, track.perimeter, 200, endpoint=False)
+    steps = np.hypot(*np.diff(track.point(s, np.zeros_like(s)), axis=0).T)
+    np.testing.assert_allclose(steps, track.perimeter / 200, rtol=1e-3)  # unit speed
+
+
+def test_race_scene_has_an_overtake_and_truth_by_header_stamp():
+    """The committed race's scene: opponent 2 starts behind the ego and ends ahead of opponent
+    1 (an overtake); truth and scans share their stamps; scans are logged after their sweep."""
+    scene = race_scene(0, duration=5.0)
+    ego, first, second = scene.sensor, scene.objects[0].motion, scene.objects[1].motion
+    assert second.s0 < ego.s0 < first.s0
+    assert second.s0 + second.speed * 5.0 > first.s0 + first.speed * 5.0
+    messages = list(race_scene(0, duration=0.5).messages())
+    stamps = {topic: [m.header.stamp.sec * 10 ** 9 + m.header.stamp.nanosec
+                      for t, m, _ in messages if t == topic]
+              for topic in ('/scan', '/ground_truth/objects')}
+    assert stamps['/scan'] == stamps['/ground_truth/objects'] and len(stamps['/scan']) == 20
+    scan_logs = [(m.header.stamp.sec * 10 ** 9 + m.header.stamp.nanosec, log)
+                 for t, m, log in messages if t == '/scan']
+    assert all(log > stamp for stamp, log in scan_logs)
+
+
+@pytest.mark.parametrize('name', ['lidar_f1tenth_race', 'lidar_urban_random'])
+def test_committed_scene_bags_regenerate(name):
+    """bags/<name> = its generator's messages (deserialised, as test_bags does for the others);
+    each under 2 MB."""
+    from pathlib import Path
+
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from data_association_ros.bag.lidar_random_scene import scene_messages
+    from data_association_ros.bag.reader import BagReader
+    from test_bags import assert_same_message
+    bag = Path(__file__).resolve().parents[1] / 'bags' / name
+    assert sum(f.stat().st_size for f in bag.iterdir()) < 2e6
+    committed = list(BagReader(bag).messages())
+    fresh = list(scene_messages(name)())
+    assert len(fresh) == len(committed)
+    for (topic, msg, log_time), stored in zip(fresh, committed):
+        assert (topic, log_time) == (stored.topic, stored.log_time_ns)
+        msg = deserialize_message(serialize_message(msg), type(msg))  # float32 fields rounded
+        assert_same_message(msg, stored.msg, f'{topic} at {log_time}')
+
+
+def test_f1tenth_parameter_file_is_the_preset():
+    import pathlib
+
+    import yaml
+
+    from data_association_ros.core.lidar.parameters import PRESETS
+    path = pathlib.Path(__file__).resolve().parents[1] / 'config' / 'lidar_f1tenth.yaml'
+    values = yaml.safe_load(path.read_text())['lidar_tracker_node']['ros__parameters']
+    assert values == PRESETS['f1tenth']
+    TrackerConfig().with_values(**values)
