@@ -166,6 +166,7 @@ class SlamPipeline:
         self.next_id = 0
         self.added_for: set[int] = set()   # scan stamps whose new landmarks were added
         self.sensor_reach = 0.0    # largest observation distance seen [m] (local map radius)
+        self.last_update: Optional[tuple[int, float, int]] = None   # (stamp, joint NIS, dof)
         self._throttle = WarningThrottle()
 
     # -- inputs -------------------------------------------------------------------------
@@ -362,9 +363,10 @@ class SlamPipeline:
         use = np.flatnonzero(known & once)
         values, covariances = current.observations.values, current.observations.covariances
         try:
-            slam.update(values[use], covariances[use], assignment[use])
+            nis = slam.update(values[use], covariances[use], assignment[use])
         except (np.linalg.LinAlgError, InvalidInputError, ValueError) as error:
             return self._invalid('update', error)   # e.g. S not positive definite
+        self.last_update = (current.stamp, nis, 2 * len(use))
         self.statistics.updates += 1
         self.statistics.fused_observations += len(use)
         current.updated = True
