@@ -41,13 +41,16 @@ class SlamRun:
     """What one run produced: per scan stamp the association answer (K,) and its time [ms]
     (offline: the association pipeline's compute time; live: latency), the posterior pose, and
     the final slam_map points (id, x, y, cov_*, origin_*); the posterior pose covariance (3, 3)
-    per scan and, offline only, the joint NIS and its degrees of freedom of each EKF update."""
+    per scan and, offline only, the joint NIS and its degrees of freedom of each EKF update;
+    origins: landmark id -> (origin stamp, observation) of every landmark the filter ever had,
+    also those merged or dropped before the end (scoring needs their identity)."""
 
     answers: dict[int, np.ndarray] = field(default_factory=dict)
     times_ms: dict[int, float] = field(default_factory=dict)
     poses: dict[int, np.ndarray] = field(default_factory=dict)
     pose_covariances: dict[int, np.ndarray] = field(default_factory=dict)
     update_nis: dict[int, tuple[float, int]] = field(default_factory=dict)
+    origins: dict[int, tuple[int, int]] = field(default_factory=dict)
     final_map: Optional[np.ndarray] = None
     scans_sent: int = 0
     nodes_alive: bool = True
@@ -123,6 +126,7 @@ def run_offline(messages: list[tuple[str, Any]], algorithm: str, mode: str,
             run.update_nis[stamp] = (nis, dof)
             slam.last_update = None
     run.final_map = None if run.final_map is None else cloud_to_array(run.final_map)
+    run.origins = dict(slam.origins)
     return run
 
 
@@ -185,8 +189,15 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
     cloud = types[topics.GROUND_TRUTH]
     node.create_subscription(cloud, topics.CORRESPONDENCES, on_answer, qos)
     # the map before the pose: the ekf_slam_node publishes them in this order
-    node.create_subscription(cloud, topics.SLAM_MAP,
-                             lambda msg: final_map.__setitem__(0, msg), qos)
+    def on_map(msg):
+        final_map[0] = msg
+        points = cloud_to_array(msg)
+        for landmark, sec, nanosec, observation in zip(
+                points['id'].tolist(), points['origin_stamp_sec'].tolist(),
+                points['origin_stamp_nanosec'].tolist(), points['origin_observation'].tolist()):
+            run.origins.setdefault(landmark, (sec * 1_000_000_000 + nanosec, observation))
+
+    node.create_subscription(cloud, topics.SLAM_MAP, on_map, qos)
     node.create_subscription(message_class('nav_msgs/msg/Odometry'), topics.SLAM_POSE, on_pose,
                              qos)
 

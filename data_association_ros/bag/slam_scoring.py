@@ -58,6 +58,19 @@ def identities(final_map: Optional[np.ndarray], truth: SlamTruth) -> dict[int, t
     return out
 
 
+def answer_identities(run: SlamRun, truth: SlamTruth) -> dict[int, tuple[int, int]]:
+    """`identities` of the final map, plus those of the landmarks merged or dropped before
+    the end (run.origins), so a pair with one of them is scored by what it was started from."""
+    out = identities(run.final_map, truth)
+    for landmark, (stamp, index) in run.origins.items():
+        if landmark not in out:
+            labels = truth.labels.get(stamp)
+            label = int(labels[index]) if labels is not None and 0 <= index < len(labels) \
+                else CLUTTER
+            out[landmark] = (label, stamp)
+    return out
+
+
 def first_landmark_stamps(ids: dict[int, tuple[int, int]]) -> dict[int, int]:
     """True identity -> creation stamp of its first landmark."""
     first_of: dict[int, int] = {}
@@ -81,7 +94,7 @@ def _scan_masks(stamp: int, labels: np.ndarray, answer: np.ndarray,
 def scan_outcomes(run: SlamRun, truth: SlamTruth) -> dict[int, tuple[int, int]]:
     """Per answered scan stamp: (wrong pairs, missed pairs) among its certain observations, as
     counted by `score_run`."""
-    ids = identities(run.final_map, truth)
+    ids = answer_identities(run, truth)
     first_of = first_landmark_stamps(ids)
     out: dict[int, tuple[int, int]] = {}
     for stamp in sorted(truth.labels):
@@ -99,8 +112,9 @@ def scan_outcomes(run: SlamRun, truth: SlamTruth) -> dict[int, tuple[int, int]]:
 def score_run(run: SlamRun, truth: SlamTruth,
               rmse_exclude: Iterable[int] = ()) -> dict[str, float]:
     """The score table row of one run (see the module doc)."""
+    every = answer_identities(run, truth)
+    first_of = first_landmark_stamps(every)
     ids = identities(run.final_map, truth)
-    first_of = first_landmark_stamps(ids)
     paired = correct = in_map = new_false = clutter_paired = answered = observations = 0
     right_unpaired = missed = 0
     for stamp in sorted(truth.labels):
@@ -110,7 +124,7 @@ def score_run(run: SlamRun, truth: SlamTruth,
             continue
         answered += 1
         observations += int(certain.sum())
-        mapped, identity = _scan_masks(stamp, labels, answer, ids, first_of)
+        mapped, identity = _scan_masks(stamp, labels, answer, every, first_of)
         is_pair = (answer >= 0) & certain
         paired += int(is_pair.sum())
         correct += int((is_pair & (identity == labels) & (labels >= 0)).sum())
