@@ -291,10 +291,14 @@ class SlamPipeline:
                 self.slam.model = MODELS[model]   # an empty map takes the new model
         except INPUT_ERRORS as error:
             return self._invalid('sensor_observations', error)
+        # odometry newer than the scan and not here yet belongs to the next scan (scans may be
+        # closer than odometry_tolerance: MRCLAM has 1 ms gaps), so only what was consumed, or
+        # the scan's stamp, is "done"
+        consumed = stamp_ns(msg.header)
         while self.odometry_queue and self.odometry_queue[0][0] <= odometry_until:
-            _, pose = self.odometry_queue.pop(0)
+            consumed, pose = self.odometry_queue.pop(0)
             self.odometry.add(pose.mean, pose.covariance)
-        self.consumed_until = odometry_until
+        self.consumed_until = max(consumed, stamp_ns(msg.header), self.consumed_until or 0)
         if self.slam is None:
             self.slam = self._start(model)
         increment, noise = self.odometry.take()
