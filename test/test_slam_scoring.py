@@ -2,8 +2,9 @@
 import numpy as np
 import pytest
 
+from data_association_ros.bag.slam_plot import plot_name, plot_run
 from data_association_ros.bag.slam_run import SlamRun
-from data_association_ros.bag.slam_scoring import SlamTruth, pose_rmse, score_run
+from data_association_ros.bag.slam_scoring import SlamTruth, pose_rmse, scan_outcomes, score_run
 
 S = 1_000_000_000
 MAP_DTYPE = np.dtype([('id', '<i4'), ('x', '<f4'), ('y', '<f4'), ('origin_stamp_sec', '<i4'),
@@ -87,3 +88,39 @@ def test_trajectory_rmse_is_gauge_free():
     assert pose_rmse(moved, true) < 1e-9
     moved[2 * S] = moved[2 * S] + [0.6, 0.0, 0.0]
     assert 0.0 < pose_rmse(moved, true) < 0.6 / np.sqrt(6) + 1e-9
+
+
+def test_merged_and_dropped_landmarks_keep_their_identity():
+    # scan 1 starts 0 (from true 7) and 1 (from true 7 again: a duplicate), scan 2 pairs true 7
+    # with 1, then 1 is merged into 0 and is gone from the final map; scan 3 pairs 7 with 0
+    truth = SlamTruth(labels={1 * S: np.array([7, 7]), 2 * S: np.array([7]),
+                              3 * S: np.array([7])},
+                      certain={1 * S: np.array([True, True]), 2 * S: np.array([True]),
+                               3 * S: np.array([True])}, landmarks={}, poses={})
+    answers = {1 * S: np.array([-1, -1]), 2 * S: np.array([1]), 3 * S: np.array([0])}
+    final = final_map([(0, 0.0, 0.0, 1, 0)])
+    without = score_run(SlamRun(answers=answers, final_map=final), truth)
+    assert without['pair_precision'] == 0.5        # landmark 1 unknown: its pair counts wrong
+    run = SlamRun(answers=answers, final_map=final, origins={0: (1 * S, 0), 1: (1 * S, 1)})
+    row = score_run(run, truth)
+    assert row['pair_precision'] == 1.0 and row['correct_percent'] == 100.0
+    assert row['landmarks'] == 1 and row['landmarks_duplicate'] == 0
+    assert scan_outcomes(run, truth) == {1 * S: (0, 0), 2 * S: (0, 0), 3 * S: (0, 0)}
+    assert scan_outcomes(SlamRun(answers=answers, final_map=final), truth)[2 * S] == (1, 0)
+
+
+def test_plot_writes_a_picture(tmp_path):
+    truth = SlamTruth(labels={1 * S: np.array([7, 8]), 2 * S: np.array([7, 8])},
+                      certain={1 * S: np.array([True, True]), 2 * S: np.array([True, True])},
+                      landmarks={7: np.array([0.0, 0.0]), 8: np.array([4.0, 0.0]),
+                                 9: np.array([0.0, 4.0])},
+                      poses={1 * S: np.array([1.0, 1.0, 0.0]), 2 * S: np.array([2.0, 1.0, 0.0])})
+    run = SlamRun(answers={1 * S: np.array([-1, -1]), 2 * S: np.array([1, 0])},
+                  poses={1 * S: np.array([1.0, 1.0, 0.0]), 2 * S: np.array([2.0, 1.0, 0.0]),
+                         3 * S: np.array([3.0, 1.0, 0.0])},
+                  final_map=final_map([(0, 0.0, 0.0, 1, 0), (1, 4.0, 0.0, 1, 1),
+                                       (2, 0.1, 0.0, 2, 0)]))
+    assert scan_outcomes(run, truth) == {1 * S: (0, 0), 2 * S: (2, 0)}    # both pairs swapped
+    path = plot_run(run, truth, plot_name('bag', 'jcbb', 'node', tmp_path), 'title')
+    assert path == tmp_path / 'bag_jcbb_closed.png'
+    assert path.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and path.stat().st_size > 5000

@@ -40,11 +40,17 @@ DRAIN_S = 0.3
 class SlamRun:
     """What one run produced: per scan stamp the association answer (K,) and its time [ms]
     (offline: the association pipeline's compute time; live: latency), the posterior pose, and
-    the final slam_map points (id, x, y, cov_*, origin_*)."""
+    the final slam_map points (id, x, y, cov_*, origin_*); the posterior pose covariance (3, 3)
+    per scan and, offline only, the joint NIS and its degrees of freedom of each EKF update;
+    origins: landmark id -> (origin stamp, observation) of every landmark the filter ever had,
+    also those merged or dropped before the end (scoring needs their identity)."""
 
     answers: dict[int, np.ndarray] = field(default_factory=dict)
     times_ms: dict[int, float] = field(default_factory=dict)
     poses: dict[int, np.ndarray] = field(default_factory=dict)
+    pose_covariances: dict[int, np.ndarray] = field(default_factory=dict)
+    update_nis: dict[int, tuple[float, int]] = field(default_factory=dict)
+    origins: dict[int, tuple[int, int]] = field(default_factory=dict)
     final_map: Optional[np.ndarray] = None
     scans_sent: int = 0
     nodes_alive: bool = True
@@ -106,7 +112,7 @@ def run_offline(messages: list[tuple[str, Any]], algorithm: str, mode: str,
                     deliver(slam.on_new_landmarks(answer.new_landmarks))
                 deliver(slam.on_correspondences(answer.correspondences))
             elif topic == 'slam_pose':
-                run.poses[stamp_ns(msg.header)] = _pose_of(msg)
+                _record_pose(run, msg)
             elif topic == 'slam_map':
                 run.final_map = msg
 
@@ -115,12 +121,25 @@ def run_offline(messages: list[tuple[str, Any]], algorithm: str, mode: str,
     for topic, msg in messages:
         run.scans_sent += topic == topics.SENSOR_OBSERVATIONS
         deliver(handlers[topic](msg))
+        if slam.last_update is not None:
+            stamp, nis, dof = slam.last_update
+            run.update_nis[stamp] = (nis, dof)
+            slam.last_update = None
     run.final_map = None if run.final_map is None else cloud_to_array(run.final_map)
+    run.origins = dict(slam.origins)
     return run
 
 
 def _pose_of(msg) -> np.ndarray:
     return pose_from_odometry(msg).mean
+
+
+def _record_pose(run: SlamRun, msg) -> None:
+    """The posterior pose of a slam_pose message and its covariance, by stamp."""
+    pose = pose_from_odometry(msg)
+    stamp = stamp_ns(msg.header)
+    run.poses[stamp] = pose.mean
+    run.pose_covariances[stamp] = pose.covariance
 
 
 def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
@@ -159,9 +178,8 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
             run.times_ms[stamp] = (time.monotonic() - sent_at[stamp]) * 1e3
 
     def on_pose(msg):
-        stamp = stamp_ns(msg.header)
-        run.poses[stamp] = _pose_of(msg)
-        done.add(stamp)
+        _record_pose(run, msg)
+        done.add(stamp_ns(msg.header))
 
     types = {t: message_class(name) for t, name in (
         (topics.ODOMETRY, 'nav_msgs/msg/Odometry'),
@@ -171,8 +189,15 @@ def run_live(messages: list[tuple[str, Any]], algorithm: str, mode: str,
     cloud = types[topics.GROUND_TRUTH]
     node.create_subscription(cloud, topics.CORRESPONDENCES, on_answer, qos)
     # the map before the pose: the ekf_slam_node publishes them in this order
-    node.create_subscription(cloud, topics.SLAM_MAP,
-                             lambda msg: final_map.__setitem__(0, msg), qos)
+    def on_map(msg):
+        final_map[0] = msg
+        points = cloud_to_array(msg)
+        for landmark, sec, nanosec, observation in zip(
+                points['id'].tolist(), points['origin_stamp_sec'].tolist(),
+                points['origin_stamp_nanosec'].tolist(), points['origin_observation'].tolist()):
+            run.origins.setdefault(landmark, (sec * 1_000_000_000 + nanosec, observation))
+
+    node.create_subscription(cloud, topics.SLAM_MAP, on_map, qos)
     node.create_subscription(message_class('nav_msgs/msg/Odometry'), topics.SLAM_POSE, on_pose,
                              qos)
 

@@ -58,14 +58,63 @@ def identities(final_map: Optional[np.ndarray], truth: SlamTruth) -> dict[int, t
     return out
 
 
+def answer_identities(run: SlamRun, truth: SlamTruth) -> dict[int, tuple[int, int]]:
+    """`identities` of the final map, plus those of the landmarks merged or dropped before
+    the end (run.origins), so a pair with one of them is scored by what it was started from."""
+    out = identities(run.final_map, truth)
+    for landmark, (stamp, index) in run.origins.items():
+        if landmark not in out:
+            labels = truth.labels.get(stamp)
+            label = int(labels[index]) if labels is not None and 0 <= index < len(labels) \
+                else CLUTTER
+            out[landmark] = (label, stamp)
+    return out
+
+
+def first_landmark_stamps(ids: dict[int, tuple[int, int]]) -> dict[int, int]:
+    """True identity -> creation stamp of its first landmark."""
+    first_of: dict[int, int] = {}
+    for _, (label, stamp) in sorted(ids.items(), key=lambda item: item[1][1]):
+        if label >= 0:
+            first_of.setdefault(label, stamp)
+    return first_of
+
+
+def _scan_masks(stamp: int, labels: np.ndarray, answer: np.ndarray,
+                ids: dict[int, tuple[int, int]], first_of: dict[int, int]):
+    """(mapped, identity) per observation: its true landmark was in the map before the scan;
+    the true identity of the landmark it was paired with (CLUTTER when none)."""
+    mapped = np.array([label >= 0 and first_of.get(int(label), stamp) < stamp
+                       for label in labels], dtype=bool)
+    identity = np.array([ids.get(int(a), (CLUTTER, 0))[0] if a >= 0 else CLUTTER
+                         for a in answer])
+    return mapped, identity
+
+
+def scan_outcomes(run: SlamRun, truth: SlamTruth) -> dict[int, tuple[int, int]]:
+    """Per answered scan stamp: (wrong pairs, missed pairs) among its certain observations, as
+    counted by `score_run`."""
+    ids = answer_identities(run, truth)
+    first_of = first_landmark_stamps(ids)
+    out: dict[int, tuple[int, int]] = {}
+    for stamp in sorted(truth.labels):
+        labels, certain = truth.labels[stamp], truth.certain[stamp]
+        answer = run.answers.get(stamp)
+        if answer is None or len(answer) != len(labels):
+            continue
+        mapped, identity = _scan_masks(stamp, labels, answer, ids, first_of)
+        is_pair = (answer >= 0) & certain
+        wrong = int(is_pair.sum()) - int((is_pair & (identity == labels) & (labels >= 0)).sum())
+        out[stamp] = (wrong, int(((answer < 0) & certain & mapped).sum()))
+    return out
+
+
 def score_run(run: SlamRun, truth: SlamTruth,
               rmse_exclude: Iterable[int] = ()) -> dict[str, float]:
     """The score table row of one run (see the module doc)."""
+    every = answer_identities(run, truth)
+    first_of = first_landmark_stamps(every)
     ids = identities(run.final_map, truth)
-    first_of: dict[int, int] = {}      # true identity -> creation stamp of its first landmark
-    for landmark, (label, stamp) in sorted(ids.items(), key=lambda item: item[1][1]):
-        if label >= 0:
-            first_of.setdefault(label, stamp)
     paired = correct = in_map = new_false = clutter_paired = answered = observations = 0
     right_unpaired = missed = 0
     for stamp in sorted(truth.labels):
@@ -75,10 +124,7 @@ def score_run(run: SlamRun, truth: SlamTruth,
             continue
         answered += 1
         observations += int(certain.sum())
-        mapped = np.array([label >= 0 and first_of.get(int(label), stamp) < stamp
-                           for label in labels], dtype=bool)
-        identity = np.array([ids.get(int(a), (CLUTTER, 0))[0] if a >= 0 else CLUTTER
-                             for a in answer])
+        mapped, identity = _scan_masks(stamp, labels, answer, every, first_of)
         is_pair = (answer >= 0) & certain
         paired += int(is_pair.sum())
         correct += int((is_pair & (identity == labels) & (labels >= 0)).sum())

@@ -42,6 +42,7 @@ from ..core.models import MODELS
 from ..core.parameters import ParameterSpec
 from ..core.problem import state_rows
 from ..core.slam import EkfSlam, OdometryIncrements
+from ..core.slam.landmark_management import LandmarkManagementConfig, LandmarkManager
 from ..core.slam.local_map import local_map_columns
 from ..core.validation import check_covariance_matrix, check_positive_semidefinite
 from .association import NS_PER_S, stamp_ns
@@ -89,6 +90,29 @@ SLAM_PARAMETERS = (
                   'scan can observe (within its farthest observation + 5 m + 6.4 standard '
                   'deviations of the pose, landmark and observation errors: docs/large_maps.md)',
                   spec=ParameterSpec('local_map_radius', 0.0, '', low=0.0)),
+    NodeParameter('merge_probability', 0.0, 'closed loop: merge two landmarks when their '
+                  'difference passes the chi-square test at this probability (joint covariance '
+                  'included; core/slam/landmark_management.py); 0: never',
+                  spec=ParameterSpec('merge_probability', 0.0, '', low=0.0, high=1.0,
+                                     high_open=True)),
+    NodeParameter('merge_distance', 2.0, 'only landmarks closer than this are tested for a '
+                  'merge [m]', spec=ParameterSpec('merge_distance', 2.0, '', low=0.0,
+                                                  low_open=True)),
+    NodeParameter('drop_misses', 0, 'closed loop: drop a landmark seen at most '
+                  'drop_max_sightings times once it was predicted in view on this many scans '
+                  'in a row without being seen; 0: never',
+                  spec=ParameterSpec('drop_misses', 0, '', kind=int, low=0, high=100000)),
+    NodeParameter('drop_max_sightings', 1, 'landmarks seen more often than this are never '
+                  'dropped (0: no limit)',
+                  spec=ParameterSpec('drop_max_sightings', 1, '', kind=int, low=0,
+                                     high=100000)),
+    NodeParameter('view_range', 0.0, 'sensor range for drop_misses: a landmark farther than '
+                  'this is not in view [m]; 0: the largest observation distance seen so far',
+                  spec=ParameterSpec('view_range', 0.0, '', low=0.0)),
+    NodeParameter('view_half_angle', 3.141592653589793, 'sensor field of view for drop_misses: '
+                  'a landmark at a bearing beyond +- this is not in view [rad]',
+                  spec=ParameterSpec('view_half_angle', 3.141592653589793, '', low=0.0,
+                                     high=3.141592653589793, low_open=True)),
     NodeParameter('input_qos', 'reliable', 'QoS of the odometry and sensor_observations '
                   'subscriptions: reliable or sensor_data (best effort, as many drivers '
                   'publish)', choices=('reliable', 'sensor_data'), read_only=True),
@@ -165,6 +189,9 @@ class SlamPipeline:
         self.origins: dict[int, tuple[int, int]] = {}   # landmark id -> (stamp, observation)
         self.next_id = 0
         self.added_for: set[int] = set()   # scan stamps whose new landmarks were added
+        self.sensor_reach = 0.0    # largest observation distance seen [m] (view_range 0)
+        self.last_update: Optional[tuple[int, float, int]] = None   # (stamp, joint NIS, dof)
+        self.manager = LandmarkManager(self._management_config())
         self._throttle = WarningThrottle()
 
     # -- inputs -------------------------------------------------------------------------
@@ -264,10 +291,14 @@ class SlamPipeline:
                 self.slam.model = MODELS[model]   # an empty map takes the new model
         except INPUT_ERRORS as error:
             return self._invalid('sensor_observations', error)
+        # odometry newer than the scan and not here yet belongs to the next scan (scans may be
+        # closer than odometry_tolerance: MRCLAM has 1 ms gaps), so only what was consumed, or
+        # the scan's stamp, is "done"
+        consumed = stamp_ns(msg.header)
         while self.odometry_queue and self.odometry_queue[0][0] <= odometry_until:
-            _, pose = self.odometry_queue.pop(0)
+            consumed, pose = self.odometry_queue.pop(0)
             self.odometry.add(pose.mean, pose.covariance)
-        self.consumed_until = odometry_until
+        self.consumed_until = max(consumed, stamp_ns(msg.header), self.consumed_until or 0)
         if self.slam is None:
             self.slam = self._start(model)
         increment, noise = self.odometry.take()
@@ -280,6 +311,9 @@ class SlamPipeline:
             del self.early_answers[old]
             self.statistics.dropped['answer_without_scan'] += 1
         header = Header(stamp=msg.header.stamp, frame_id=MAP_FRAME)
+        self.sensor_reach = max(self.sensor_reach, float(np.max(
+            np.abs(observations.values[:, 0]) if model == 'range_bearing'
+            else np.linalg.norm(observations.values, axis=1), initial=0.0)))
         local = self._local_map(observations)
         rows = state_rows(local, 2)
         ids, means, covariances = self.slam.marginals(local)
@@ -293,6 +327,26 @@ class SlamPipeline:
         if answer is not None:
             out += self._apply_answer(answer)
         return out
+
+    def _management_config(self) -> LandmarkManagementConfig:
+        c = self.config
+        return LandmarkManagementConfig(
+            merge_probability=c.get('merge_probability', 0.0),
+            merge_distance=c.get('merge_distance', 2.0), drop_misses=c.get('drop_misses', 0),
+            drop_max_sightings=c.get('drop_max_sightings', 1),
+            view_range=c.get('view_range', 0.0), view_half_angle=c.get('view_half_angle', np.pi))
+
+    def _manage_landmarks(self, fused_ids: np.ndarray) -> None:
+        """Closed loop: merge duplicates and drop never-seen landmarks after a scan's update
+        (core/slam/landmark_management.py; counted in statistics)."""
+        if self.config['association_source'] != 'node' or not self.manager.active:
+            return
+        self.manager.config = self._management_config()
+        if self.manager.config.view_range <= 0:
+            self.manager.config.view_range = self.sensor_reach
+        result = self.manager.after_scan(self.slam, fused_ids)
+        self.statistics.dropped['landmarks_merged'] += len(result.merged)
+        self.statistics.dropped['landmarks_dropped'] += len(result.dropped)
 
     def _local_map(self, observations: Observations) -> np.ndarray:
         """Columns (L,) of the landmarks in this scan's local map (core/slam/local_map.py:
@@ -352,9 +406,11 @@ class SlamPipeline:
         use = np.flatnonzero(known & once)
         values, covariances = current.observations.values, current.observations.covariances
         try:
-            slam.update(values[use], covariances[use], assignment[use])
+            nis = slam.update(values[use], covariances[use], assignment[use])
         except (np.linalg.LinAlgError, InvalidInputError, ValueError) as error:
             return self._invalid('update', error)   # e.g. S not positive definite
+        self.last_update = (current.stamp, nis, 2 * len(use))
+        self.manager.fused(assignment[use])
         self.statistics.updates += 1
         self.statistics.fused_observations += len(use)
         current.updated = True
@@ -366,10 +422,12 @@ class SlamPipeline:
         for old in [s for s in self.early_new if s < current.stamp]:
             del self.early_new[old]
             self.statistics.dropped['new_landmarks_without_scan'] += 1
+        self._manage_landmarks(assignment[use])
         return self._estimate_messages()
 
     def _add(self, values, covariances, ids, observations) -> None:
         self.slam.add_landmarks(values, covariances, ids)
+        self.manager.started(ids)
         for landmark, index in zip(ids.tolist(), observations.tolist()):
             self.origins[landmark] = (self.current.stamp, index)
         self.statistics.landmarks_added += len(ids)
@@ -436,6 +494,7 @@ class SlamPipeline:
         slam.covariance = grown
         slam.mean = np.concatenate([slam.mean, mean])
         slam.ids = np.append(slam.ids, self.next_id)
+        self.manager.started([self.next_id])
         self.origins[self.next_id] = origin
         self.next_id += 1
 

@@ -1,8 +1,8 @@
 """Converters from the real SLAM data sets in the shared data directory to `SlamSequence`.
 
 `SEQUENCES` maps a bag name to a loader taking the root data directory (the folder holding
-`ttk4250_simulated_slam/`, `dlr_spatial_cognition/`, `utias_mrclam_ds1_robot1/` and
-`victoria_park/`); `DEFAULT_DATA_DIRECTORY` is that folder next to the repository
+`ttk4250_simulated_slam/`, `dlr_spatial_cognition/`, `utias_mrclam_ds1_robot1/`,
+`utias_mrclam_ds1_robot2/` and `victoria_park/`); `DEFAULT_DATA_DIRECTORY` is that folder next to the repository
 (<repo>/../shared/data).
 """
 from __future__ import annotations
@@ -36,6 +36,7 @@ SEQUENCES: dict[str, Callable[[Path], SlamSequence]] = {
     'ttk4250_simulated_clutter20': _ttk4250_clutter(20),
     'dlr_spatial_cognition': lambda root: dlr.load(Path(root) / dlr.FOLDER),
     'mrclam_robot1': lambda root: mrclam.load(Path(root) / mrclam.FOLDER),
+    'mrclam_robot2': lambda root: mrclam.load(Path(root) / mrclam.ROBOT2_FOLDER, robot=2),
     'victoria_park': lambda root: victoria_park.load(Path(root) / victoria_park.FOLDER),
 }
 """Bag name -> loader(root data directory) -> SlamSequence."""

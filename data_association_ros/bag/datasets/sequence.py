@@ -45,7 +45,8 @@ class SlamSequence:
     increment moves the robot from initial_pose.  true_landmarks: id -> (2,) map position when
     known.  truth_is_reference: the labels are a reference association (not true), e.g.
     Victoria Park's pre-computed front end.  parameters: association_node parameters the data
-    set needs (e.g. its significance levels)."""
+    set needs (e.g. its significance levels); slam_parameters: ekf_slam_node parameters beyond
+    the initial pose (e.g. its landmark management)."""
 
     name: str
     description: str
@@ -56,6 +57,7 @@ class SlamSequence:
     true_landmarks: Optional[dict[int, np.ndarray]] = None
     truth_is_reference: bool = False
     parameters: dict = field(default_factory=dict)
+    slam_parameters: dict = field(default_factory=dict)
 
     @property
     def observation_count(self) -> int:

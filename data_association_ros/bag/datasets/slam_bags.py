@@ -32,12 +32,13 @@ ODOMETRY_LEAD_NS = 1_000_000
 
 
 def slam_parameters(sequence: SlamSequence) -> dict:
-    """ekf_slam_node parameters the bag needs: its initial pose and standard deviations."""
+    """ekf_slam_node parameters the bag needs: its initial pose and standard deviations, and
+    the sequence's own (slam_parameters)."""
     pose, covariance = sequence.initial_pose, sequence.initial_covariance
     return {'initial_x': float(pose[0]), 'initial_y': float(pose[1]),
             'initial_yaw': float(pose[2]),
             'initial_position_std': float(np.sqrt(max(covariance[0, 0], covariance[1, 1]))),
-            'initial_yaw_std': float(np.sqrt(covariance[2, 2]))}
+            'initial_yaw_std': float(np.sqrt(covariance[2, 2])), **sequence.slam_parameters}
 
 
 def custom_data(sequence: SlamSequence) -> dict[str, str]:

@@ -1,0 +1,197 @@
+"""Landmark management for EKF-SLAM: merge duplicates by a joint test, drop landmarks that are
+predicted in view again and again but never seen.
+
+Merge.  Two landmarks i, j of the state are one when the difference d = l_i - l_j passes the
+chi-square test d^T D^-1 d <= chi2(2, merge_probability), D = P_ii + P_jj - P_ij - P_ji (the
+covariance of d, with the cross-correlation the filter holds).  They are fused exactly by the
+noise-free pseudo-measurement 0 = l_i - l_j (K = P H^T D^-1, x -= K d, P -= K D K^T,
+H = [.. I .. -I ..]); then l_j equals l_i and is removed from the state (its rows and columns
+deleted), the older landmark i stays.  Tested pairs: each landmark fused or started since the
+last call against every other landmark within merge_distance [m] (Euclidean pre-filter), the
+smallest statistic first, each landmark merged at most once per call.
+
+Drop.  Each landmark counts its sightings (scans on which it was fused, its start included) and
+its misses: scans in a row since its last sighting on which its mean was predicted in view -
+range <= view_range [m] and |bearing| <= view_half_angle [rad] from the robot's posterior pose -
+but it was not fused.  A landmark with at most drop_max_sightings sightings (0: any number) is
+removed once it has drop_misses misses: a clutter return or a duplicate started from a bad pose
+that is never seen again, or (drop_max_sightings 0) an object that has moved away.
+
+The state is the EkfSlam's (mean, covariance, ids); removal keeps the order of the others.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from ..models.base import wrap_angle
+from .ekf_slam import LANDMARK, POSE, EkfSlam
+
+MERGE_REGULARISATION = 1e-12
+"""Added to the diagonal of D before it is inverted [m^2] (two landmarks with identical rows)."""
+
+
+@dataclass
+class LandmarkManagementConfig:
+    """merge_probability in (0, 1) (0: no merging); merge_distance [m]; drop_misses (0: no
+    dropping); drop_max_sightings (0: no limit); view_range [m] (0: no limit);
+    view_half_angle [rad]."""
+
+    merge_probability: float = 0.0
+    merge_distance: float = 2.0
+    drop_misses: int = 0
+    drop_max_sightings: int = 1
+    view_range: float = 0.0
+    view_half_angle: float = np.pi
+
+
+@dataclass
+class ManagementResult:
+    """What one call changed: merged (removed id, kept id) pairs and dropped ids."""
+
+    merged: list[tuple[int, int]] = field(default_factory=list)
+    dropped: list[int] = field(default_factory=list)
+
+
+def remove_landmarks(slam: EkfSlam, ids: np.ndarray) -> None:
+    """Delete the landmarks `ids` (all in the map) from the state: their mean entries and
+    covariance rows and columns (marginalisation)."""
+    ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+    if ids.size == 0:
+        return
+    index = slam.index_of(ids)
+    if np.any(index < 0):
+        raise ValueError(f'ids not in the map: {ids[index < 0]}')
+    keep = np.ones(len(slam.mean), dtype=bool)
+    for a in range(LANDMARK):
+        keep[POSE + LANDMARK * index + a] = False
+    slam.mean = slam.mean[keep]
+    slam.covariance = slam.covariance[np.ix_(keep, keep)]
+    slam.ids = np.delete(slam.ids, index)
+
+
+def merge_statistic(slam: EkfSlam, i: int, j: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """(d^T D^-1 d, d (2,), D (2, 2)) of landmarks at map indices i, j (see the module doc)."""
+    a, b = POSE + LANDMARK * i, POSE + LANDMARK * j
+    p = slam.covariance
+    d = slam.mean[a:a + LANDMARK] - slam.mean[b:b + LANDMARK]
+    block = (p[a:a + LANDMARK, a:a + LANDMARK] + p[b:b + LANDMARK, b:b + LANDMARK]
+             - p[a:a + LANDMARK, b:b + LANDMARK] - p[b:b + LANDMARK, a:a + LANDMARK])
+    block = 0.5 * (block + block.T) + MERGE_REGULARISATION * np.eye(LANDMARK)
+    return float(d @ np.linalg.solve(block, d)), d, block
+
+
+def fuse_equal(slam: EkfSlam, i: int, j: int) -> None:
+    """Condition the state on l_i = l_j (map indices; see the module doc); l_j stays in the
+    state with the same mean and rows as l_i."""
+    _, d, block = merge_statistic(slam, i, j)
+    a, b = POSE + LANDMARK * i, POSE + LANDMARK * j
+    p = slam.covariance
+    p_ht = p[:, a:a + LANDMARK] - p[:, b:b + LANDMARK]          # P H^T (n, 2)
+    gain = np.linalg.solve(block, p_ht.T).T                      # (n, 2)
+    slam.mean -= gain @ d
+    slam.mean[2] = wrap_angle(slam.mean[2])
+    p -= gain @ p_ht.T
+    slam.covariance = 0.5 * (p + p.T)
+
+
+class LandmarkManager:
+    """Sightings and misses per landmark id, and the merge and drop rules of the module doc."""
+
+    def __init__(self, config: LandmarkManagementConfig) -> None:
+        self.config = config
+        self.sightings: dict[int, int] = {}
+        self.misses: dict[int, int] = {}
+        self.fresh: set[int] = set()     # fused or started since the last call
+
+    @property
+    def active(self) -> bool:
+        return self.config.merge_probability > 0 or self.config.drop_misses > 0
+
+    def started(self, ids) -> None:
+        """Landmarks just added to the map (one sighting each)."""
+        for landmark in np.asarray(ids, dtype=np.int64).reshape(-1).tolist():
+            self.sightings[landmark] = 1
+            self.misses[landmark] = 0
+            self.fresh.add(landmark)
+
+    def fused(self, ids) -> None:
+        """Landmarks fused in this scan's update."""
+        for landmark in np.asarray(ids, dtype=np.int64).reshape(-1).tolist():
+            self.sightings[landmark] = self.sightings.get(landmark, 0) + 1
+            self.misses[landmark] = 0
+            self.fresh.add(landmark)
+
+    def after_scan(self, slam: EkfSlam, fused_ids) -> ManagementResult:
+        """Count misses of the landmarks in view not in `fused_ids`, then merge and drop (the
+        module doc); returns what was removed.  Call once per scan, after its update and its new
+        landmarks."""
+        result = ManagementResult()
+        if not self.active or len(slam.ids) == 0:
+            self.fresh.clear()
+            return result
+        if self.config.drop_misses > 0:
+            self._count_misses(slam, set(np.asarray(fused_ids, dtype=np.int64).tolist()))
+        if self.config.merge_probability > 0:
+            result.merged = self._merge(slam)
+        if self.config.drop_misses > 0:
+            result.dropped = self._drop(slam)
+        self.fresh.clear()
+        return result
+
+    def _in_view(self, slam: EkfSlam) -> np.ndarray:
+        """(N,) landmarks whose mean is in the sensor's view from the posterior pose."""
+        means = slam.mean[POSE:].reshape(-1, LANDMARK)
+        delta = means - slam.mean[:2]
+        distance = np.hypot(delta[:, 0], delta[:, 1])
+        bearing = wrap_angle(np.arctan2(delta[:, 1], delta[:, 0]) - slam.mean[2])
+        view = np.abs(bearing) <= self.config.view_half_angle
+        if self.config.view_range > 0:
+            view &= distance <= self.config.view_range
+        return view
+
+    def _count_misses(self, slam: EkfSlam, fused: set[int]) -> None:
+        for landmark in slam.ids[self._in_view(slam)].tolist():
+            if landmark not in fused and landmark not in self.fresh:
+                self.misses[landmark] = self.misses.get(landmark, 0) + 1
+
+    def _merge(self, slam: EkfSlam) -> list[tuple[int, int]]:
+        threshold = chi2.ppf(self.config.merge_probability, LANDMARK)
+        means = slam.mean[POSE:].reshape(-1, LANDMARK)
+        fresh = [i for i in slam.index_of(np.array(sorted(self.fresh), dtype=np.int64))
+                 if i >= 0]
+        tests = []
+        for i in fresh:
+            near = np.flatnonzero(np.hypot(*(means - means[i]).T) <= self.config.merge_distance)
+            for j in near[near != i].tolist():
+                statistic, _, _ = merge_statistic(slam, i, j)
+                if statistic <= threshold:
+                    tests.append((statistic, int(slam.ids[min(i, j)]),
+                                  int(slam.ids[max(i, j)])))
+        merged, used = [], set()
+        for _, keep, remove in sorted(tests):
+            if keep in used or remove in used:
+                continue
+            i, j = slam.index_of(np.array([keep, remove]))
+            fuse_equal(slam, int(i), int(j))
+            remove_landmarks(slam, np.array([remove]))
+            self.sightings[keep] = self.sightings.get(keep, 0) + self.sightings.pop(remove, 0)
+            self.misses[keep] = min(self.misses.get(keep, 0), self.misses.pop(remove, 0))
+            used.update((keep, remove))
+            merged.append((remove, keep))
+        return merged
+
+    def _drop(self, slam: EkfSlam) -> list[int]:
+        config = self.config
+        dropped = [landmark for landmark in slam.ids.tolist()
+                   if self.misses.get(landmark, 0) >= config.drop_misses
+                   and (config.drop_max_sightings == 0
+                        or self.sightings.get(landmark, 0) <= config.drop_max_sightings)]
+        if dropped:
+            remove_landmarks(slam, np.array(dropped, dtype=np.int64))
+            for landmark in dropped:
+                self.sightings.pop(landmark, None)
+                self.misses.pop(landmark, None)
+        return dropped

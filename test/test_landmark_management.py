@@ -1,0 +1,155 @@
+"""core/slam/landmark_management.py against explicit matrices (brute force) and small maps whose
+outcome is known by construction."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from scipy.stats import chi2
+
+from data_association_ros.core.slam import EkfSlam
+from data_association_ros.core.slam.landmark_management import (
+    LandmarkManagementConfig, LandmarkManager, fuse_equal, merge_statistic, remove_landmarks)
+
+
+def random_filter(seed: int, landmarks: int) -> EkfSlam:
+    """An EkfSlam whose state has a random mean and a random positive definite covariance."""
+    rng = np.random.default_rng(seed)
+    size = 3 + 2 * landmarks
+    slam = EkfSlam(rng.normal(size=3), np.eye(3), 'range_bearing')
+    root = rng.normal(size=(size, size))
+    slam.mean = rng.normal(scale=3.0, size=size)
+    slam.covariance = root @ root.T / size + 0.05 * np.eye(size)
+    slam.ids = np.arange(10, 10 + landmarks, dtype=np.int64)
+    return slam
+
+
+def difference_matrix(size: int, i: int, j: int) -> np.ndarray:
+    """H (2, size) with H x = l_i - l_j."""
+    h = np.zeros((2, size))
+    h[:, 3 + 2 * i:5 + 2 * i] = np.eye(2)
+    h[:, 3 + 2 * j:5 + 2 * j] = -np.eye(2)
+    return h
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), landmarks=st.integers(2, 6), data=st.data())
+def test_merge_statistic_and_fusion_match_explicit_matrices(seed, landmarks, data):
+    i = data.draw(st.integers(0, landmarks - 1))
+    j = data.draw(st.integers(0, landmarks - 1).filter(lambda k: k != i))
+    slam = random_filter(seed, landmarks)
+    mean, covariance = slam.mean.copy(), slam.covariance.copy()
+    h = difference_matrix(len(mean), i, j)
+    s = h @ covariance @ h.T
+    d = h @ mean
+    statistic, _, _ = merge_statistic(slam, i, j)
+    assert statistic == pytest.approx(d @ np.linalg.solve(s, d), rel=1e-8)
+    # conditioning on l_i = l_j: Kalman update with z = 0, R -> 0, explicit K
+    gain = covariance @ h.T @ np.linalg.inv(s)
+    expected_mean = mean - gain @ d
+    expected_covariance = covariance - gain @ s @ gain.T
+    fuse_equal(slam, i, j)
+    np.testing.assert_allclose(slam.mean[:2], expected_mean[:2], atol=1e-8)
+    np.testing.assert_allclose(slam.mean[3:], expected_mean[3:], atol=1e-8)
+    np.testing.assert_allclose(slam.covariance, expected_covariance, atol=1e-8)
+    np.testing.assert_allclose(slam.mean[3 + 2 * i:5 + 2 * i], slam.mean[3 + 2 * j:5 + 2 * j],
+                               atol=1e-8)
+    assert np.allclose(slam.covariance, slam.covariance.T)
+    assert np.linalg.eigvalsh(slam.covariance).min() > -1e-8
+
+
+def test_remove_landmarks_deletes_their_rows_and_keeps_the_rest_in_order():
+    slam = random_filter(3, 4)
+    mean, covariance = slam.mean.copy(), slam.covariance.copy()
+    remove_landmarks(slam, np.array([11, 13]))
+    keep = [0, 1, 2, 3, 4, 7, 8]                 # pose, landmark 10, landmark 12
+    np.testing.assert_array_equal(slam.ids, [10, 12])
+    np.testing.assert_array_equal(slam.mean, mean[keep])
+    np.testing.assert_array_equal(slam.covariance, covariance[np.ix_(keep, keep)])
+    with pytest.raises(ValueError):
+        remove_landmarks(slam, np.array([11]))
+
+
+def two_sightings_filter(second_offset: float) -> EkfSlam:
+    """A robot at the origin facing +x that started landmark 0 at (5, 0) and then, after a
+    move of 1 m, landmark 1 from a sighting `second_offset` m to the left of (5, 0)."""
+    slam = EkfSlam([0.0, 0.0, 0.0], np.diag([0.01, 0.01, 0.001]), 'point_robot')
+    noise = np.diag([0.02, 0.02])[None]
+    slam.add_landmarks(np.array([[5.0, 0.0]]), noise, np.array([0]))
+    slam.predict(np.array([1.0, 0.0, 0.0]), np.diag([0.01, 0.01, 0.001]))
+    slam.add_landmarks(np.array([[4.0, second_offset]]), noise, np.array([1]))
+    return slam
+
+
+def test_manager_merges_a_second_landmark_of_one_point_and_keeps_the_older():
+    slam = two_sightings_filter(0.05)
+    manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
+    manager.started([0])
+    manager.started([1])
+    statistic, _, _ = merge_statistic(slam, 0, 1)
+    assert statistic < chi2.ppf(0.99, 2)
+    result = manager.after_scan(slam, [])
+    assert result.merged == [(1, 0)] and result.dropped == []
+    np.testing.assert_array_equal(slam.ids, [0])
+    assert slam.covariance.shape == (5, 5)
+    # the merged point lies between the two sightings' positions (5, 0) and (5, 0.05)
+    assert slam.mean[3] == pytest.approx(5.0, abs=1e-3) and 0.0 < slam.mean[4] < 0.05
+
+
+def test_manager_keeps_two_points_the_test_separates():
+    slam = two_sightings_filter(1.5)         # 1.5 m apart, sigma ~0.2 m: different points
+    manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
+    manager.started([0, 1])
+    statistic, _, _ = merge_statistic(slam, 0, 1)
+    assert statistic > chi2.ppf(0.99, 2)
+    assert manager.after_scan(slam, []).merged == []
+    np.testing.assert_array_equal(slam.ids, [0, 1])
+
+
+def test_manager_drops_a_landmark_predicted_in_view_but_never_seen():
+    # robot at the origin facing +x; landmark 0 ahead (in view), landmark 1 behind (never in
+    # a 60-degree field of view), landmark 2 ahead but seen every scan
+    slam = EkfSlam([0.0, 0.0, 0.0], np.eye(3) * 1e-4, 'point_robot')
+    noise = np.repeat(np.eye(2)[None] * 0.01, 3, axis=0)
+    slam.add_landmarks(np.array([[3.0, 0.5], [-3.0, 0.0], [4.0, -0.5]]), noise,
+                       np.array([0, 1, 2]))
+    config = LandmarkManagementConfig(drop_misses=3, drop_max_sightings=1, view_range=10.0,
+                                      view_half_angle=np.deg2rad(30.0))
+    manager = LandmarkManager(config)
+    manager.started([0, 1, 2])
+    assert manager.after_scan(slam, []).dropped == []          # just started: not a miss
+    assert manager.after_scan(slam, [2]).dropped == []          # miss 1 of landmark 0
+    assert manager.after_scan(slam, [2]).dropped == []          # miss 2
+    assert manager.after_scan(slam, [2]).dropped == [0]         # miss 3: dropped
+    np.testing.assert_array_equal(slam.ids, [1, 2])
+    for _ in range(10):                                        # 1 is behind, 2 seen: kept
+        assert manager.after_scan(slam, [2]).dropped == []
+
+
+def test_manager_spares_established_landmarks_unless_told_otherwise():
+    slam = EkfSlam([0.0, 0.0, 0.0], np.eye(3) * 1e-4, 'point_robot')
+    slam.add_landmarks(np.array([[3.0, 0.0]]), np.eye(2)[None] * 0.01, np.array([0]))
+    for limit, dropped_after in ((1, None), (0, 2)):
+        manager = LandmarkManager(LandmarkManagementConfig(drop_misses=2,
+                                                           drop_max_sightings=limit))
+        manager.started([0])
+        manager.fused([0])                   # seen twice: established for limit 1
+        manager.after_scan(slam, [0])
+        outcomes = [manager.after_scan(slam, []).dropped for _ in range(3)]
+        if dropped_after is None:
+            assert outcomes == [[], [], []]
+        else:
+            assert outcomes == [[], [0], []]
+            assert len(slam.ids) == 0
+            slam.add_landmarks(np.array([[3.0, 0.0]]), np.eye(2)[None] * 0.01, np.array([0]))
+
+
+def test_inactive_manager_changes_nothing():
+    slam = two_sightings_filter(0.0)
+    mean = slam.mean.copy()
+    manager = LandmarkManager(LandmarkManagementConfig())
+    manager.started([0, 1])
+    assert not manager.active
+    result = manager.after_scan(slam, [])
+    assert result.merged == [] and result.dropped == []
+    np.testing.assert_array_equal(slam.mean, mean)
