@@ -38,6 +38,17 @@ def state_rows(columns: np.ndarray, dim: int) -> np.ndarray:
     return np.concatenate([np.arange(3), (first[:, None] + np.arange(dim)).ravel()])
 
 
+def landmark_blocks(state_covariance: np.ndarray, columns: np.ndarray, dim: int) -> np.ndarray:
+    """The diagonal blocks (L, dim, dim) of the landmarks at `columns` (L,) in a joint covariance
+    of [x, y, yaw, landmark 0 (dim), ...] (a copy)."""
+    first = 3 + dim * np.asarray(columns, dtype=np.intp)
+    blocks = np.empty((len(first), dim, dim))
+    for a in range(dim):
+        for b in range(dim):
+            blocks[:, a, b] = state_covariance[first + a, first + b]
+    return blocks
+
+
 def _inverses(matrices: np.ndarray) -> np.ndarray:
     """Inverses of a stack (..., m, m); NaN for the numerically singular ones (then one matrix
     at a time, a rare path)."""

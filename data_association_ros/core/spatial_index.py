@@ -39,6 +39,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .gating import Gate
+from .problem import landmark_blocks
 from .types import Landmarks, Observations
 
 INDEX_MIN_LANDMARKS = 64
@@ -71,16 +72,16 @@ def landmark_spreads(landmarks: Landmarks, state_covariance: Optional[np.ndarray
     covariance's diagonal blocks when given, else the marginal covariances (0 without any)."""
     n, d = len(landmarks), landmarks.dim if len(landmarks) else 2
     if state_covariance is not None:
-        start = 3 + d * np.arange(n)
-        blocks = np.empty((n, d, d))
-        for a in range(d):
-            for b in range(d):
-                blocks[:, a, b] = state_covariance[start + a, start + b]
-    elif landmarks.covariances is not None:
-        blocks = landmarks.covariances
-    else:
-        return np.zeros(n)
-    return np.sqrt(np.maximum(largest_eigenvalues(blocks), 0.0))
+        return spreads(landmark_blocks(state_covariance, np.arange(n), d))
+    if landmarks.covariances is not None:
+        return spreads(landmarks.covariances)
+    return np.zeros(n)
+
+
+def spreads(matrices: np.ndarray) -> np.ndarray:
+    """sqrt(lambda_max) of each symmetric matrix of a stack (n, d, d) -> (n,) (the largest
+    standard deviation along any direction; 0 for a matrix with no positive eigenvalue)."""
+    return np.sqrt(np.maximum(largest_eigenvalues(matrices), 0.0))
 
 
 class LandmarkIndex:
@@ -191,7 +192,7 @@ def search_radii(model: str, observations: Observations, pose_mean: Optional[np.
     root = np.sqrt(gamma)
     noise = observations.covariances
     pose_cov = np.zeros((3, 3)) if pose_covariance is None else pose_covariance
-    sigma_xy = float(np.sqrt(max(largest_eigenvalues(pose_cov[None, :2, :2])[0], 0.0)))
+    sigma_xy = float(spreads(pose_cov[None, :2, :2])[0])
     sigma_yaw = float(np.sqrt(max(pose_cov[2, 2], 0.0)))
     with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
         if model == 'range_bearing':

@@ -43,7 +43,7 @@ from ..core.parameters import ParameterSpec
 from ..core.problem import state_rows
 from ..core.slam import EkfSlam, OdometryIncrements
 from ..core.slam.landmark_management import LandmarkManagementConfig, LandmarkManager
-from ..core.slam.local_map import local_map_columns
+from ..core.slam.local_map import local_map_columns, scan_reach
 from ..core.validation import check_covariance_matrix, check_positive_semidefinite
 from .association import NS_PER_S, stamp_ns
 from .parameters import BY_NAME, NodeParameter
@@ -311,17 +311,18 @@ class SlamPipeline:
             del self.early_answers[old]
             self.statistics.dropped['answer_without_scan'] += 1
         header = Header(stamp=msg.header.stamp, frame_id=MAP_FRAME)
-        self.sensor_reach = max(self.sensor_reach, float(np.max(
-            np.abs(observations.values[:, 0]) if model == 'range_bearing'
-            else np.linalg.norm(observations.values, axis=1), initial=0.0)))
-        local = self._local_map(observations)
+        self.sensor_reach = max(self.sensor_reach, scan_reach(observations.values, model))
+        ids, means, covariances = self.slam.marginals()
+        slam = self.slam
+        local = local_map_columns(model, slam.mean[:3], slam.covariance[:3, :3], means,
+                                  covariances, observations.values, observations.covariances,
+                                  self.config['local_map_radius'])
         rows = state_rows(local, 2)
-        ids, means, covariances = self.slam.marginals(local)
         out: Outputs = [
-            ('landmarks', point_map_cloud(header, ids, means, covariances)),
+            ('landmarks', point_map_cloud(header, ids[local], means[local], covariances[local])),
             ('robot_pose', odometry_message(header, *self._pose())),
             ('state_covariance', state_covariance_cloud(
-                header, ids, self.slam.covariance[np.ix_(rows, rows)])),
+                header, ids[local], slam.covariance[np.ix_(rows, rows)])),
             ('observations', msg)]
         answer = self.early_answers.pop(stamp, None)
         if answer is not None:
@@ -329,12 +330,14 @@ class SlamPipeline:
         return out
 
     def _management_config(self) -> LandmarkManagementConfig:
+        """The landmark-management parameters now (view_range 0: the farthest observation seen
+        so far)."""
         c = self.config
         return LandmarkManagementConfig(
-            merge_probability=c.get('merge_probability', 0.0),
-            merge_distance=c.get('merge_distance', 2.0), drop_misses=c.get('drop_misses', 0),
-            drop_max_sightings=c.get('drop_max_sightings', 1),
-            view_range=c.get('view_range', 0.0), view_half_angle=c.get('view_half_angle', np.pi))
+            merge_probability=c['merge_probability'], merge_distance=c['merge_distance'],
+            drop_misses=c['drop_misses'], drop_max_sightings=c['drop_max_sightings'],
+            view_range=c['view_range'] if c['view_range'] > 0 else self.sensor_reach,
+            view_half_angle=c['view_half_angle'])
 
     def _manage_landmarks(self, fused_ids: np.ndarray) -> None:
         """Closed loop: merge duplicates and drop never-seen landmarks after a scan's update
@@ -342,20 +345,9 @@ class SlamPipeline:
         if self.config['association_source'] != 'node' or not self.manager.active:
             return
         self.manager.config = self._management_config()
-        if self.manager.config.view_range <= 0:
-            self.manager.config.view_range = self.sensor_reach
         result = self.manager.after_scan(self.slam, fused_ids)
         self.statistics.dropped['landmarks_merged'] += len(result.merged)
         self.statistics.dropped['landmarks_dropped'] += len(result.dropped)
-
-    def _local_map(self, observations: Observations) -> np.ndarray:
-        """Columns (L,) of the landmarks in this scan's local map (core/slam/local_map.py:
-        within local_map_radius of the robot, or those the scan can observe when it is 0)."""
-        slam = self.slam
-        _, means, covariances = slam.marginals()
-        return local_map_columns(slam.model.name, slam.mean[:3], slam.covariance[:3, :3], means,
-                                 covariances, observations.values, observations.covariances,
-                                 self.config['local_map_radius'])
 
     def _start(self, model: str) -> EkfSlam:
         c = self.config

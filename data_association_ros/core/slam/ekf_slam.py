@@ -11,7 +11,7 @@ augment:  l = g(pose, z) (the model's inverse),  P_ll = G_p P_pp G_p^T + G_z R G
 """
 from __future__ import annotations
 
-from typing import Optional, Sequence
+from typing import Sequence
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
@@ -20,6 +20,7 @@ from ..errors import InvalidInputError
 from ..models import MODELS
 from ..models.base import wrap_angle
 from ..multi_hypothesis.motion import compose, compose_jacobians
+from ..problem import landmark_blocks
 from ..types import Landmarks, RobotPose
 
 POSE = 3
@@ -51,20 +52,12 @@ class EkfSlam:
         """The map: ids (N,), means (N, 2), marginal covariances (N, 2, 2) (checked)."""
         return Landmarks(*self.marginals())
 
-    def marginals(self, columns: Optional[np.ndarray] = None
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(ids (L,), means (L, 2), marginal covariances (L, 2, 2)) of the landmarks at
-        `columns` (None: all), copies of the filter's own state, not checked again (the
-        per-scan path: O(L), whatever the map's size)."""
+    def marginals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(ids (N,), means (N, 2), marginal covariances (N, 2, 2)): copies of the filter's own
+        state, not checked again (the per-scan path)."""
         n = len(self.ids)
-        columns = np.arange(n) if columns is None else np.asarray(columns, dtype=np.intp)
-        means = self.mean[POSE:].reshape(n, LANDMARK)[columns]
-        index = POSE + LANDMARK * columns
-        blocks = np.empty((len(columns), LANDMARK, LANDMARK))
-        for a in range(LANDMARK):
-            for b in range(LANDMARK):
-                blocks[:, a, b] = self.covariance[index + a, index + b]
-        return self.ids[columns], means, blocks
+        return (self.ids.copy(), self.mean[POSE:].reshape(n, LANDMARK).copy(),
+                landmark_blocks(self.covariance, np.arange(n), LANDMARK))
 
     def index_of(self, ids: np.ndarray) -> np.ndarray:
         """Landmark index (position in the map) of each id; -1 for ids not in the map."""

@@ -24,8 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import chi2
-
+from ..gating import chi2_threshold
 from ..models.base import wrap_angle
 from .ekf_slam import LANDMARK, POSE, EkfSlam
 
@@ -158,7 +157,7 @@ class LandmarkManager:
                 self.misses[landmark] = self.misses.get(landmark, 0) + 1
 
     def _merge(self, slam: EkfSlam) -> list[tuple[int, int]]:
-        threshold = chi2.ppf(self.config.merge_probability, LANDMARK)
+        threshold = chi2_threshold(self.config.merge_probability, LANDMARK)
         means = slam.mean[POSE:].reshape(-1, LANDMARK)
         fresh = [i for i in slam.index_of(np.array(sorted(self.fresh), dtype=np.int64))
                  if i >= 0]

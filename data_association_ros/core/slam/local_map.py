@@ -18,19 +18,22 @@ gates up to that size and the associator's innovation variance floor.
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import chi2
 
-from ..spatial_index import largest_eigenvalues
+from ..gating import chi2_threshold
+from ..spatial_index import spreads
 
 LOCAL_MAP_MARGIN = 5.0
 """Added to every landmark's bound [m]."""
-LOCAL_MAP_SIGMAS = float(np.sqrt(chi2.ppf(1.0 - 1e-9, 2)))
+LOCAL_MAP_SIGMAS = float(np.sqrt(chi2_threshold(1.0 - 1e-9, 2)))
 """s of the bound: 6.4, the chi-square gate of probability 1 - 1e-9 for 2-D observations."""
 
 
-def _spread(covariances: np.ndarray) -> np.ndarray:
-    """sqrt(lambda_max) of each 2 x 2 covariance (n, 2, 2) -> (n,)."""
-    return np.sqrt(np.maximum(largest_eigenvalues(covariances), 0.0))
+def scan_reach(values: np.ndarray, model: str) -> float:
+    """The largest distance of a robot-frame observation (K, 2) from the robot [m]: |range|
+    (range_bearing) or |(x, y)| (point_robot); 0 for none."""
+    distance = np.abs(values[:, 0]) if model == 'range_bearing' else \
+        np.hypot(values[:, 0], values[:, 1])
+    return float(np.max(distance, initial=0.0))
 
 
 def local_map_columns(model: str, pose: np.ndarray, pose_covariance: np.ndarray,
@@ -45,15 +48,14 @@ def local_map_columns(model: str, pose: np.ndarray, pose_covariance: np.ndarray,
     if radius > 0:
         return np.flatnonzero(distance <= radius)
     s = LOCAL_MAP_SIGMAS
-    sigma_xy = float(_spread(pose_covariance[None, :2, :2])[0])
-    sigma_landmark = _spread(covariances)
+    sigma_xy = float(spreads(pose_covariance[None, :2, :2])[0])
+    sigma_landmark = spreads(covariances)
+    reach = scan_reach(values, model)
     if model == 'range_bearing':
-        reach = float(np.max(np.abs(values[:, 0]), initial=0.0))
         sigma_z = float(np.sqrt(np.max(noise[:, 0, 0], initial=0.0)))
         bound = reach + s * (sigma_xy + sigma_landmark + sigma_z)
     else:
-        reach = float(np.max(np.hypot(values[:, 0], values[:, 1]), initial=0.0))
-        sigma_z = float(np.max(_spread(noise), initial=0.0))
+        sigma_z = float(np.max(spreads(noise), initial=0.0))
         shrink = 1.0 - s * float(np.sqrt(max(pose_covariance[2, 2], 0.0)))
         if shrink <= 0.0:
             return np.arange(len(means))
