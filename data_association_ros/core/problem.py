@@ -65,6 +65,24 @@ def _inverses(matrices: np.ndarray) -> np.ndarray:
         return out.reshape(matrices.shape)
 
 
+def prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance: np.ndarray,
+                           pose_landmark: np.ndarray, landmark_covariances: np.ndarray
+                           ) -> np.ndarray:
+    """H_j P H_j^T (N, m, m) from the Jacobians h_x (N, m, 3) and h_m (N, m, d), the pose
+    covariance (3, 3), Cov(pose, m_j) (N, 3, d) and Cov(m_j) (N, d, d)."""
+    cross = h_x @ pose_landmark @ np.swapaxes(h_m, 1, 2)
+    return (h_x @ pose_covariance @ np.swapaxes(h_x, 1, 2)
+            + cross + np.swapaxes(cross, 1, 2) + h_m @ landmark_covariances @ np.swapaxes(h_m, 1, 2))
+
+
+def nis_of_innovations(nu: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """nu^T S^-1 nu for innovations nu (..., m) and covariances S broadcast against them
+    (..., m, m); inf where S is numerically singular (such a pair can never be gated)."""
+    with np.errstate(invalid='ignore', over='ignore'):
+        d2 = symmetric_quadratic_form(nu, _inverses(s))
+    return np.where(np.isfinite(d2) & (d2 >= 0), d2, np.inf)
+
+
 class AssociationProblem:
     """Landmarks, observations, pose and joint covariance checked against each other."""
 
@@ -208,10 +226,8 @@ class AssociationProblem:
             p_mm = blocks[index, :, index, :]
         else:
             p_mm = self.landmarks.covariances
-        p_xm = self._pose_landmark_block(index)
-        cross = h_x @ p_xm @ np.swapaxes(h_m, 1, 2)
-        return (h_x @ self._pose_covariance() @ np.swapaxes(h_x, 1, 2)
-                + cross + np.swapaxes(cross, 1, 2) + h_m @ p_mm @ np.swapaxes(h_m, 1, 2))
+        return prediction_covariances(h_x, h_m, self._pose_covariance(),
+                                      self._pose_landmark_block(index), p_mm)
 
     def joint_prediction_covariance(self, landmark_indices: np.ndarray) -> np.ndarray:
         """Cov(h_a, h_b) for a, b in `landmark_indices` (L, L, m, m): H_a P H_b^T, as one
@@ -266,12 +282,11 @@ class AssociationProblem:
             return np.zeros((k, n))
         nu = self.innovations
         shared = self._shared_innovation_covariances
+        if shared is not None:
+            return nis_of_innovations(nu, shared)
         with np.errstate(invalid='ignore', over='ignore'):
-            if shared is not None:
-                d2 = symmetric_quadratic_form(nu, _inverses(shared))
-            else:
-                inverse = _inverses(self.innovation_covariances)
-                d2 = np.einsum('knm,knm->kn', nu, np.einsum('knab,knb->kna', inverse, nu))
+            inverse = _inverses(self.innovation_covariances)
+            d2 = np.einsum('knm,knm->kn', nu, np.einsum('knab,knb->kna', inverse, nu))
         # a numerically singular S (absurd magnitudes): that pair can never be gated
         return np.where(np.isfinite(d2) & (d2 >= 0), d2, np.inf)
 

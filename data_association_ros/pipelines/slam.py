@@ -5,8 +5,9 @@ Per scan (`sensor_observations`, PointCloud2 in the robot frame: range, bearing 
 var_bearing] or x, y [+ cov_xx, cov_xy, cov_yy]):
 1. wait until odometry at least as new as the scan has arrived (or `max_pending_scans` scans
    wait), compose the odometry increments up to the scan and predict;
-2. publish the local map - `landmarks` within local_map_radius of the robot, `robot_pose` and
-   `state_covariance` (the block of [pose, those landmarks]) - stamped with the scan's stamp,
+2. publish the local map - `landmarks` some observation of the scan can be paired with (or
+   within local_map_radius of the robot), `robot_pose` and `state_covariance` (the block of
+   [pose, those landmarks]) - stamped with the scan's stamp,
    then forward the scan on `observations` (so the association node has the map before the
    scan);
 3. on the scan's answer - `correspondences` (association_source `node`) or
@@ -43,7 +44,8 @@ from ..core.parameters import ParameterSpec
 from ..core.problem import state_rows
 from ..core.slam import EkfSlam, OdometryIncrements
 from ..core.slam.landmark_management import LandmarkManagementConfig, LandmarkManager
-from ..core.slam.local_map import local_map_columns, scan_reach
+from ..core.slam.local_map import (EUCLIDEAN_GATE, POSITION_STD, YAW_STD, local_map_columns,
+                                   scan_reach)
 from ..core.validation import check_covariance_matrix, check_positive_semidefinite
 from .association import NS_PER_S, stamp_ns
 from .parameters import BY_NAME, NodeParameter
@@ -86,10 +88,25 @@ SLAM_PARAMETERS = (
                   spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
     NodeParameter('local_map_radius', 0.0, 'landmarks and state_covariance carry the local map: '
                   'the landmarks within this distance of the robot [m] and the covariance block '
-                  'of [pose, those landmarks] (ids stay global); 0: automatic, the landmarks the '
-                  'scan can observe (within its farthest observation + 5 m + 6.4 standard '
-                  'deviations of the pose, landmark and observation errors: docs/large_maps.md)',
+                  'of [pose, those landmarks] (ids stay global); 0: automatic, the landmarks '
+                  'some observation of the scan can be paired with (a chi-square gate up to '
+                  '1 - 1e-9 under the pose widened by local_map_position_std and '
+                  'local_map_yaw_std, or a Euclidean gate up to local_map_euclidean_gate: '
+                  'docs/large_maps.md)',
                   spec=ParameterSpec('local_map_radius', 0.0, '', low=0.0)),
+    NodeParameter('local_map_position_std', POSITION_STD, 'automatic local map: robot position '
+                  'noise [m] a second association pass may add (at least association_node\'s '
+                  'recovery_position_std)',
+                  spec=ParameterSpec('local_map_position_std', POSITION_STD, '', low=0.0,
+                                     high=1e3)),
+    NodeParameter('local_map_yaw_std', YAW_STD, 'automatic local map: heading noise [rad] a '
+                  'second association pass may add (at least association_node\'s '
+                  'recovery_yaw_std)',
+                  spec=ParameterSpec('local_map_yaw_std', YAW_STD, '', low=0.0, high=10.0)),
+    NodeParameter('local_map_euclidean_gate', EUCLIDEAN_GATE, 'automatic local map: the '
+                  'largest Euclidean gate covered (at least association_node\'s euclidean_gate; '
+                  'measurement units)',
+                  spec=ParameterSpec('local_map_euclidean_gate', EUCLIDEAN_GATE, '', low=0.0)),
     NodeParameter('merge_probability', 0.0, 'closed loop: merge two landmarks when their '
                   'difference passes the chi-square test at this probability (joint covariance '
                   'included; core/slam/landmark_management.py); 0: never',
@@ -155,6 +172,9 @@ class SlamStatistics:
     updates: int = 0
     fused_observations: int = 0
     landmarks_added: int = 0
+    local_map_landmarks: int = 0
+    """Landmarks in the last scan's local map (`landmarks`, `state_covariance`)."""
+    local_map_landmarks_max: int = 0
     invalid: Counter = field(default_factory=Counter)
     dropped: Counter = field(default_factory=Counter)
 
@@ -162,6 +182,8 @@ class SlamStatistics:
         return {'scans': self.scans, 'updates': self.updates,
                 'fused_observations': self.fused_observations,
                 'landmarks_added': self.landmarks_added,
+                'local_map_landmarks': self.local_map_landmarks,
+                'local_map_landmarks_max': self.local_map_landmarks_max,
                 **{f'invalid_{k}': v for k, v in sorted(self.invalid.items())},
                 **{f'dropped_{k}': v for k, v in sorted(self.dropped.items())}}
 
@@ -314,9 +336,15 @@ class SlamPipeline:
         self.sensor_reach = max(self.sensor_reach, scan_reach(observations.values, model))
         ids, means, covariances = self.slam.marginals()
         slam = self.slam
-        local = local_map_columns(model, slam.mean[:3], slam.covariance[:3, :3], means,
-                                  covariances, observations.values, observations.covariances,
-                                  self.config['local_map_radius'])
+        config = self.config
+        local = local_map_columns(model, slam.mean[:3], slam.covariance, means, covariances,
+                                  observations.values, observations.covariances,
+                                  config['local_map_radius'], config['local_map_position_std'],
+                                  config['local_map_yaw_std'],
+                                  config['local_map_euclidean_gate'])
+        self.statistics.local_map_landmarks = len(local)
+        self.statistics.local_map_landmarks_max = max(self.statistics.local_map_landmarks_max,
+                                                      len(local))
         rows = state_rows(local, 2)
         out: Outputs = [
             ('landmarks', point_map_cloud(header, ids[local], means[local], covariances[local])),
