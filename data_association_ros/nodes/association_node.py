@@ -123,7 +123,11 @@ class AssociationNode(ParameterizedNode):
             self._answer(msg)
 
     def _answer(self, msg: PointCloud2) -> None:
-        answer = self.pipeline.answer(msg)
+        # the optional outputs only for topics someone subscribes to (building them costs)
+        wanted = {topic for topic, publisher in (
+            ('new_landmarks', self.new_landmarks_pub), ('landmark_candidates', self.candidates_pub),
+            ('association_markers', self.markers_pub)) if publisher.get_subscription_count()}
+        answer = self.pipeline.answer(msg, wanted)
         if answer is None:
             return
         # new landmarks first: a SLAM node then has them when the scan's answer arrives

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Optional
+from typing import AbstractSet, Any, Callable, Optional
 
 import numpy as np
 from std_msgs.msg import Header
@@ -60,9 +60,14 @@ class StampedCovariance:
     matrix: np.ndarray
 
 
+OPTIONAL_OUTPUTS = frozenset({'new_landmarks', 'landmark_candidates', 'association_markers'})
+"""Outputs built only when wanted (AssociationPipeline.answer), by their topic names."""
+
+
 @dataclass
 class Answer:
-    """The outputs for one observation message (new_landmarks and markers may be None)."""
+    """The outputs for one observation message (new_landmarks, candidates and markers may be
+    None: none to publish, or not wanted)."""
 
     correspondences: Any
     new_landmarks: Optional[Any]
@@ -216,12 +221,14 @@ class AssociationPipeline:
             return False
         return item is not None and newest < item.stamp
 
-    def answer(self, msg) -> Optional[Answer]:
-        """The outputs for an observation PointCloud2, or None when it is skipped or invalid."""
+    def answer(self, msg, wanted: Optional[AbstractSet[str]] = None) -> Optional[Answer]:
+        """The outputs for an observation PointCloud2, or None when it is skipped or invalid.
+        wanted: the optional outputs to build (OPTIONAL_OUTPUTS; the node passes those with a
+        subscriber, None: all); the others are None, the state (candidates) is updated alike."""
         started = time.perf_counter()
         try:
             with np.errstate(all='ignore'):  # absurd magnitudes give inf/NaN, reported as such
-                return self._answer(msg, started)
+                return self._answer(msg, started, OPTIONAL_OUTPUTS if wanted is None else wanted)
         except INPUT_ERRORS as error:
             self._invalid('observations', error)
         except Exception as error:  # never let one message take the node down
@@ -229,7 +236,7 @@ class AssociationPipeline:
                          f'observation message dropped by an internal error: {error!r}')
         return None
 
-    def _answer(self, msg, started: float) -> Optional[Answer]:
+    def _answer(self, msg, started: float, wanted: AbstractSet[str]) -> Optional[Answer]:
         config = dict(self.config)
         stamp = stamp_ns(msg.header)
         item, why = self._map_for(stamp, config)
@@ -278,12 +285,14 @@ class AssociationPipeline:
         update = self._confirm(config, result, positions, covariances, stamp, model)
         answer = Answer(
             correspondences=correspondences_cloud(msg.header, result, positions),
-            new_landmarks=new_landmarks_cloud(map_header, update.confirmed),
+            new_landmarks=new_landmarks_cloud(map_header, update.confirmed)
+            if 'new_landmarks' in wanted else None,
             candidates=candidates_cloud(map_header, self.candidates.pending,
                                         self.candidates.scan)
-            if config['confirm_hits'] > 1 else None,
+            if config['confirm_hits'] > 1 and 'landmark_candidates' in wanted else None,
             markers=association_markers(map_header, result, positions, landmarks.ids,
-                                        landmarks.means) if config['publish_markers'] else None,
+                                        landmarks.means)
+            if config['publish_markers'] and 'association_markers' in wanted else None,
             association=result,
             transform=transform_message(msg.header, result.extras['transform'])
             if 'transform' in result.extras else None)
