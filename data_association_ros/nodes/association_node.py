@@ -82,8 +82,8 @@ class AssociationNode(ParameterizedNode):
         self.create_timer(config['diagnostics_period'], self.publish_diagnostics)
         self._waiting: deque = deque()   # (observation message, wall time it arrived)
         self.create_timer(0.05, self._answer_waiting)
-        self.get_logger().info(f'association_node ready: algorithm {config["algorithm"]}, '
-                               f'measurement_model {config["measurement_model"]}')
+        self.ready_text = (f'association_node ready: algorithm {config["algorithm"]}, '
+                           f'measurement_model {config["measurement_model"]}')
 
     @property
     def statistics(self):

@@ -52,7 +52,7 @@ class BoxTrackerNode(ParameterizedNode):
         qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
         self.create_subscription(PointCloud2, 'observations', self._on_detections, qos)
         self.tracks_pub = self.create_publisher(PointCloud2, 'landmarks', 10)
-        self.get_logger().info(f'box_tracker_node ready: algorithm {self.config["algorithm"]}')
+        self.ready_text = f'box_tracker_node ready: algorithm {self.config["algorithm"]}'
 
     def on_change(self) -> None:
         config = self.config

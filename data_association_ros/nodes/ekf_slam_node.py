@@ -51,8 +51,8 @@ class EkfSlamNode(ParameterizedNode):
             self.create_subscription(kind, topic, self._publishing(handler), profile)
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.create_timer(1.0, self.publish_diagnostics)
-        self.get_logger().info('ekf_slam_node ready: association_source '
-                               f'{self.config["association_source"]}')
+        self.ready_text = ('ekf_slam_node ready: association_source '
+                           f'{self.config["association_source"]}')
 
     def _publishing(self, handler):
         def callback(msg) -> None:

@@ -96,8 +96,8 @@ class LidarTrackerNode(ParameterizedNode):
         self.scans = 0
         self.last_step_ms = float('nan')
         self.create_timer(1.0, self.publish_diagnostics)
-        self.get_logger().info(f'lidar_tracker_node ready: coarse {self.config["coarse"]}, '
-                               f'fine {self.config["fine"]}, jnis {self.config["jnis"]}')
+        self.ready_text = (f'lidar_tracker_node ready: coarse {self.config["coarse"]}, '
+                           f'fine {self.config["fine"]}, jnis {self.config["jnis"]}')
 
     def on_change(self) -> None:
         self.tracker.configure(TrackerConfig(**{p.name: self.config[p.name]

@@ -172,14 +172,32 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
         rclpy.shutdown()
         sys.exit(str(error))
     try:
-        freeze_start_up_objects()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
+        try:
+            freeze_start_up_objects()
+            if getattr(node, 'ready_text', ''):   # after the freeze: a Ctrl-C right after
+                node.get_logger().info(node.ready_text)   # "ready" no longer lands in gc
+            rclpy.spin(node)
+        except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+            pass
+        except Exception:
+            if rclpy.ok():
+                raise
+            # Ctrl-C: rclpy's handler shut the context down before spin was under way (its
+            # executor cannot be made); Python delivers the KeyboardInterrupt later
+        finally:
+            _stop(node)
+    except KeyboardInterrupt:   # that late KeyboardInterrupt, raised while stopping
+        _stop(node)
+
+
+def _stop(node: Node) -> None:
+    """Ignore any further SIGINT (else the interpreter's exit restores the default action and a
+    late second Ctrl-C ends the process by the signal, exit code -2), destroy the node once,
+    shut rclpy down; a stop interrupted by the first Ctrl-C's late KeyboardInterrupt is begun
+    again by the caller."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if not getattr(node, '_stopped', False):
         node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-        # else the interpreter's exit restores the default action: a late second SIGINT
-        # would end the process by the signal (exit code -2) instead of 0
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        node._stopped = True
+    if rclpy.ok():
+        rclpy.shutdown()
