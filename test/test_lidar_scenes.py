@@ -235,3 +235,14 @@ def test_car_found_again_off_its_coasting_prediction_keeps_its_id():
     result = score(scans, estimates)[1]
     assert len(result.track_ids) == 1 and result.id_switches == 0, result
     assert result.heading_rmse_deg < 3.0 and result.position_rmse < 0.03, result
+
+
+def test_handed_velocity_keeps_the_speed_along_the_length_axis():
+    """A coasting track's velocity (-5.5, -5.7) (7.92 m/s, turned 46 deg by its yaw rate while
+    it coasted) handed to a rectangle fitted along yaw 0: (-7.92, 0), backwards along it."""
+    from data_association_ros.core.lidar.object_tracker import handed_velocity
+    np.testing.assert_allclose(handed_velocity(np.array([-5.5, -5.7]), 0.0),
+                               [-np.hypot(5.5, 5.7), 0.0], atol=1e-12)
+    np.testing.assert_allclose(handed_velocity(np.array([3.0, 4.0]), np.pi / 2), [0.0, 5.0],
+                               atol=1e-12)
+    np.testing.assert_allclose(handed_velocity(np.zeros(2), 1.0), [0.0, 0.0])

@@ -27,7 +27,13 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    track if it has min_pairs points and is not larger than max_size_ratio x the size class's
    prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
-   found again), as is a track not updated for more than max_age seconds.
+   found again), as is a track not updated for more than max_age seconds;
+8. two-point start: a track never corrected whose one cluster it cannot match (an object that
+   moved farther than the fine association reaches from a start at rest) is fitted anew to the
+   cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
+9. hand-over: a track started from a cluster that an established (min_hits) coasting track took
+   in the coarse association but could not correct is that object found again: it takes the
+   coasting track's id and speed (handed_velocity), and the coasting track is dropped.
 
 Added to the seed (why: README "LiDAR object tracking"): the boundary is a rectangle model with
 an estimated extent (completed by the size class's priors on the hidden side) sampled on its
@@ -203,11 +209,14 @@ class LidarObjectTracker:
     def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
         """The track `new`, started from a cluster that the coasting track `old` took in the
         coarse association (within its grown gate) but could not correct, is the same object
-        found again: it takes over old's id, and old is dropped.  Its pose, velocity and
-        heading start afresh (old's prediction drifted while it coasted)."""
+        found again: it takes over old's id and old's speed, along new's length axis, the way
+        nearer to old's velocity (while it coasted, the yaw rate turned old's prediction; the
+        speed is what is left of it), and old is dropped.  Its
+        pose and heading are new's fit."""
         self.tracks = [t for t in self.tracks if t is not old]
         new.id = old.id
         self._next_id -= 1
+        new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
@@ -426,6 +435,13 @@ class LidarObjectTracker:
         track.length, track.width, track.anchor = length, width, anchor
         track.updated, track.last = time, track.filter.x[:3].copy()
         track.votes = 0
+
+
+def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:
+    """The speed |velocity| (2,) along the axis yaw, forwards or backwards, whichever is nearer
+    to velocity's direction (an object moves along its length axis)."""
+    axis = np.array([np.cos(yaw), np.sin(yaw)])
+    return float(np.hypot(*velocity)) * (1.0 if axis @ velocity >= 0 else -1.0) * axis
 
 
 def start_velocity(previous: np.ndarray, centre: np.ndarray, dt: float,
