@@ -66,7 +66,10 @@ def test_node_tracks_both_cars_of_a_bag_slice(graph):
     for live, core in zip(estimates, offline):
         np.testing.assert_array_equal(live.ids, core.ids)
         np.testing.assert_allclose(live.states, core.states, atol=1e-4, rtol=1e-5)
-    boundaries = cloud_to_array(graph.received['track_boundaries'][-1])
+    # the boundaries of the last scan (published just after its tracks: wait for them)
+    last = wait_reply(graph, 'track_boundaries', len(replies), timeout=10.0)[-1]
+    assert last.header.stamp == replies[-1].header.stamp
+    boundaries = cloud_to_array(last)
     tracks = cloud_to_array(replies[-1])
     assert set(boundaries['id']) == set(tracks['id'])
 

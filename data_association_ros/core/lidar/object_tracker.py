@@ -27,7 +27,13 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    track if it has min_pairs points and is not larger than max_size_ratio x the size class's
    prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
-   found again), as is a track not updated for more than max_age seconds.
+   found again), as is a track not updated for more than max_age seconds;
+8. two-point start: a track never corrected whose one cluster it cannot match (an object that
+   moved farther than the fine association reaches from a start at rest) is fitted anew to the
+   cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
+9. hand-over: a track started from a cluster that an established (min_hits) coasting track took
+   in the coarse association but could not correct is that object found again: it takes the
+   coasting track's id and speed (handed_velocity), and the coasting track is dropped.
 
 Added to the seed (why: README "LiDAR object tracking"): the boundary is a rectangle model with
 an estimated extent (completed by the size class's priors on the hidden side) sampled on its
@@ -170,6 +176,7 @@ class LidarObjectTracker:
             track.matched = np.zeros((0, 2))
         members = self._coarse(points, labels, count)
         free = np.ones(count, dtype=bool)
+        lost: dict[int, ObjectTrack] = {}  # cluster -> the established coasting track it failed
         for track_index, clusters in members.items():
             track = self.tracks[track_index]
             coasting = track.updated < before
@@ -181,8 +188,12 @@ class LidarObjectTracker:
                 track.hits += 1
                 track.updated = time
                 track.last = track.filter.x[:3].copy()
+            elif track.hits == 1 and len(clusters) == 1:  # never corrected: two-point start
+                self._restart(track, points[labels == clusters[0]], occluded[clusters[0]], time)
             if track.updated == time or not coasting:
                 free[clusters] = False
+            elif track.hits >= config.min_hits:
+                lost.update({cluster: track for cluster in clusters})
         largest = config.max_size_ratio * max(config.priors())
         self.tracks = [t for t in self.tracks if time - t.updated <= config.max_age
                        and max(t.length, t.width) <= largest
@@ -190,8 +201,22 @@ class LidarObjectTracker:
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
             if np.count_nonzero(labels == cluster) >= config.min_pairs:
-                self._start(points[labels == cluster], occluded[cluster], time)
+                started = self._start(points[labels == cluster], occluded[cluster], time)
+                if started is not None and any(t is lost.get(cluster) for t in self.tracks):
+                    self._hand_over(lost[cluster], started)
         return self.reported()
+
+    def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
+        """The track `new`, started from a cluster that the coasting track `old` took in the
+        coarse association (within its grown gate) but could not correct, is the same object
+        found again: it takes over old's id and old's speed, along new's length axis, the way
+        nearer to old's velocity (while it coasted, the yaw rate turned old's prediction; the
+        speed is what is left of it), and old is dropped.  Its
+        pose and heading are new's fit."""
+        self.tracks = [t for t in self.tracks if t is not old]
+        new.id = old.id
+        self._next_id -= 1
+        new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
@@ -358,25 +383,78 @@ class LidarObjectTracker:
         x[:2] = x[:2] + r @ shift
         track.anchor = (scan.mean(axis=0) - x[:2]) @ r
 
-    def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float) -> None:
+    def _fit(self, cluster: np.ndarray, occluded: np.ndarray
+             ) -> Optional[tuple[np.ndarray, float, float, float, np.ndarray]]:
+        """(centre (2,), yaw, length, width, anchor (2,)) of a new object from one cluster
+        (shape.fit_rectangle), or None when it is background (longer than max_size_ratio x the
+        prior length)."""
         config = self.config
         prior_length, prior_width = config.priors()
         largest = config.max_size_ratio * max(prior_length, prior_width)
         if np.hypot(*(cluster[-1] - cluster[0])) > np.sqrt(2) * largest:
-            return  # its ends are farther apart than the diagonal of any object this size
+            return None  # its ends are farther apart than the diagonal of any object this size
         centre, yaw, length, width = fit_rectangle(cluster, prior_length, prior_width,
-                                                   sensor=self.sensor,
-                                                   occluded=occluded)
-        if max(length, width) > config.max_size_ratio * max(prior_length, prior_width):
-            return  # a wall or a building, not an object of this size class
+                                                   sensor=self.sensor, occluded=occluded)
+        if max(length, width) > largest:
+            return None  # a wall or a building, not an object of this size class
+        return centre, yaw, length, width, (cluster.mean(axis=0) - centre) @ rotation(yaw)
+
+    def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float
+               ) -> Optional[ObjectTrack]:
+        """A new track from one cluster (at rest, INITIAL_SIGMAS), or None (background)."""
+        fit = self._fit(cluster, occluded)
+        if fit is None:
+            return None
+        centre, yaw, length, width, anchor = fit
         x0 = np.array([centre[0], centre[1], yaw, 0.0, 0.0, 0.0])
         p0 = np.diag(np.square(INITIAL_SIGMAS))
         track = ObjectTrack(self._next_id, KalmanFilter(x0, p0, np.eye(6), np.eye(6), np.eye(6),
-                                                        np.eye(6)), length, width,
-                            (cluster.mean(axis=0) - centre) @ rotation(yaw), updated=time,
-                            last=x0[:3].copy(), born=time)
+                                                        np.eye(6)), length, width, anchor,
+                            updated=time, last=x0[:3].copy(), born=time)
         self.tracks.append(track)
         self._next_id += 1
+        return track
+
+    def _restart(self, track: ObjectTrack, cluster: np.ndarray, occluded: np.ndarray,
+                 time: float) -> None:
+        """Two-point initialisation of a track never corrected (its start at rest could not
+        be matched to the moved object): fitted anew to `cluster`, velocity = the change of
+        the fitted centre since the last fit / the time since (start_velocity), the initial
+        covariance.  Left as it is when the fit is background or the change is outside the
+        gate."""
+        fit = self._fit(cluster, occluded)
+        if fit is None:
+            return
+        centre, yaw, length, width, anchor = fit
+        velocity = start_velocity(track.last[:2], centre, time - track.updated,
+                                  self.config.gate_probability)
+        if velocity is None:
+            return
+        track.filter.x = np.array([centre[0], centre[1], yaw, velocity[0], velocity[1], 0.0])
+        track.filter.p = np.diag(np.square(INITIAL_SIGMAS))
+        track.length, track.width, track.anchor = length, width, anchor
+        track.updated, track.last = time, track.filter.x[:3].copy()
+        track.votes = 0
+
+
+def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:
+    """The speed |velocity| (2,) along the axis yaw, forwards or backwards, whichever is nearer
+    to velocity's direction (an object moves along its length axis)."""
+    axis = np.array([np.cos(yaw), np.sin(yaw)])
+    return float(np.hypot(*velocity)) * (1.0 if axis @ velocity >= 0 else -1.0) * axis
+
+
+def start_velocity(previous: np.ndarray, centre: np.ndarray, dt: float,
+                   gate_probability: float) -> Optional[np.ndarray]:
+    """Two-point velocity (2,) = (centre - previous) / dt of two fitted centres dt [s] apart,
+    or None when the change is outside the chi-square gate of two independent fits (std
+    INITIAL_SIGMAS[0] each) and a velocity of std INITIAL_SIGMAS[3] (a change no object of
+    the prior's speeds makes)."""
+    change = np.asarray(centre, float) - np.asarray(previous, float)
+    variance = 2 * INITIAL_SIGMAS[0] ** 2 + (INITIAL_SIGMAS[3] * dt) ** 2
+    if dt <= 0 or change @ change > chi2_threshold(gate_probability, 2) * variance:
+        return None
+    return change / dt
 
 
 def heading_turn(state: np.ndarray, velocity_covariance: np.ndarray,
