@@ -176,7 +176,8 @@ def test_a_landmark_just_outside_every_gate_is_left_out(model):
 
 
 def test_a_landmark_only_a_euclidean_gate_can_pass_is_kept():
-    """0.8 m from the observation with 1 cm noise and no pose widening: NIS 6400 (1e-8: the landmark and pose variances), far beyond any chi-square gate,
+    """0.8 m from the observation with 1 cm noise and no pose widening: NIS 6400 (1e-8: the
+    landmark and pose variances), far beyond any chi-square gate,
     but euclidean_nn's default gate (1.0) pairs them, and the local map keeps it for that."""
     joint = np.diag([1e-8] * 5)
     columns = local_map_columns('point_robot', np.zeros(3), joint, np.array([[5.8, 0.0]]),

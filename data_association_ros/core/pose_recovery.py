@@ -39,6 +39,12 @@ RECOVERY_PARAMETERS = (POSITION_STD, YAW_STD, MIN_NEW)
 """The settings of PoseRecovery as parameters (the association node declares these)."""
 
 
+def added_pose_noise(position_std: float, yaw_std: float) -> np.ndarray:
+    """Q_r = diag(position_std^2, position_std^2, yaw_std^2) (3, 3): the noise a second pass
+    adds to the pose block [m^2, m^2, rad^2]."""
+    return np.diag([position_std ** 2, position_std ** 2, yaw_std ** 2])
+
+
 @dataclasses.dataclass(frozen=True)
 class PoseRecovery:
     """position_std [m], yaw_std [rad]: the extra pose noise of the second pass (0, 0: off;
@@ -70,7 +76,7 @@ class PoseRecovery:
     def widen(self, pose: RobotPose, state_covariance: Optional[np.ndarray]
               ) -> tuple[RobotPose, Optional[np.ndarray]]:
         """The pose and joint covariance with Q_r added to the pose block."""
-        extra = np.diag([self.position_std ** 2, self.position_std ** 2, self.yaw_std ** 2])
+        extra = added_pose_noise(self.position_std, self.yaw_std)
         wide_pose = RobotPose(pose.mean, pose.covariance + extra)
         if state_covariance is None:
             return wide_pose, None

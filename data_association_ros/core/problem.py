@@ -71,8 +71,8 @@ def prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance: np
     """H_j P H_j^T (N, m, m) from the Jacobians h_x (N, m, 3) and h_m (N, m, d), the pose
     covariance (3, 3), Cov(pose, m_j) (N, 3, d) and Cov(m_j) (N, d, d)."""
     cross = h_x @ pose_landmark @ np.swapaxes(h_m, 1, 2)
-    return (h_x @ pose_covariance @ np.swapaxes(h_x, 1, 2)
-            + cross + np.swapaxes(cross, 1, 2) + h_m @ landmark_covariances @ np.swapaxes(h_m, 1, 2))
+    return (h_x @ pose_covariance @ np.swapaxes(h_x, 1, 2) + cross + np.swapaxes(cross, 1, 2)
+            + h_m @ landmark_covariances @ np.swapaxes(h_m, 1, 2))
 
 
 def nis_of_innovations(nu: np.ndarray, s: np.ndarray) -> np.ndarray:

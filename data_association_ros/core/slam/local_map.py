@@ -35,6 +35,7 @@ import numpy as np
 
 from ..gating import chi2_threshold
 from ..models import MODELS
+from ..pose_recovery import added_pose_noise
 from ..problem import landmark_blocks, prediction_covariances
 from ..spatial_index import spreads
 
@@ -54,11 +55,6 @@ def scan_reach(values: np.ndarray, model: str) -> float:
     distance = np.abs(values[:, 0]) if model == 'range_bearing' else \
         np.hypot(values[:, 0], values[:, 1])
     return float(np.max(distance, initial=0.0))
-
-
-def widening(position_std: float, yaw_std: float) -> np.ndarray:
-    """W = diag(p^2, p^2, psi^2) (3, 3)."""
-    return np.diag([position_std ** 2, position_std ** 2, yaw_std ** 2])
 
 
 def reach_bound(model: str, pose_covariance: np.ndarray, covariances: np.ndarray,
@@ -98,27 +94,29 @@ def local_map_columns(model: str, pose: np.ndarray, state_covariance: np.ndarray
         return np.flatnonzero(distance <= radius)
     if len(values) == 0 or len(means) == 0:
         return np.zeros(0, dtype=np.intp)
-    extra = widening(position_std, yaw_std)
-    near = np.flatnonzero(distance <= reach_bound(
-        model, state_covariance[:3, :3] + extra, covariances, values, noise, euclidean_gate))
+    wide_pose = state_covariance[:3, :3] + added_pose_noise(position_std, yaw_std)
+    near = np.flatnonzero(distance <= reach_bound(model, wide_pose, covariances, values, noise,
+                                                  euclidean_gate))
     if len(near) == 0:
         return near
-    return near[_pairable(model, pose, state_covariance, extra, means, covariances, values,
+    return near[_pairable(model, pose, wide_pose, state_covariance, means, covariances, values,
                           noise, near, euclidean_gate)]
 
 
-def _pairable(model: str, pose: np.ndarray, state_covariance: np.ndarray, extra: np.ndarray,
-              means: np.ndarray, covariances: np.ndarray, values: np.ndarray, noise: np.ndarray,
-              columns: np.ndarray, euclidean_gate: float) -> np.ndarray:
+def _pairable(model: str, pose: np.ndarray, wide_pose: np.ndarray,
+              state_covariance: np.ndarray, means: np.ndarray, covariances: np.ndarray,
+              values: np.ndarray, noise: np.ndarray, columns: np.ndarray,
+              euclidean_gate: float) -> np.ndarray:
     """Mask (L,) of the landmarks at `columns` that pass either gate with some observation:
     S_ij = H_j P_j H_j^T + R_i from the [pose, landmark j] blocks alone (core/problem.py's
-    prediction_covariances; the individual NIS needs no other block), pose block + `extra`."""
+    prediction_covariances; the individual NIS needs no other block), the pose block
+    replaced by the widened `wide_pose` (3, 3)."""
     measurement = MODELS[model]
     predicted, h_m, h_x = measurement.predict(means[columns], pose)
     first = 3 + 2 * columns
     pose_landmark = np.stack([state_covariance[:3, first], state_covariance[:3, first + 1]],
                              axis=-1).transpose(1, 0, 2)
-    s = prediction_covariances(h_x, h_m, state_covariance[:3, :3] + extra, pose_landmark,
+    s = prediction_covariances(h_x, h_m, wide_pose, pose_landmark,
                                landmark_blocks(state_covariance, columns, 2))
     nu = measurement.innovation(values, predicted)
     nis = _nis_2d(nu, s[None] + noise[:, None])
