@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.errors import InvalidInputError
 from ..core.lidar import LidarObjectTracker, TrackerConfig
+from ..core.lidar.free_space import beam_directions
 
 ODOMETRY_CAPACITY = 400
 """Odometry poses kept (10 s at 40 Hz)."""
@@ -117,12 +118,17 @@ class LidarTracking:
         if not np.isfinite(time_increment) or time_increment < 0:
             time_increment = 0.0
         offsets = np.arange(len(points)) * time_increment
+        directions = beam_directions(points)
         if not len(self.odometry):
             self.frame = scan_frame
-            return self.tracker.step(points, time, offsets=offsets)
+            return self.tracker.step(points, time, offsets=offsets, directions=directions)
         poses = self.odometry.at(time + (offsets if len(points) else np.zeros(1)),
                                  self.max_extrapolation)
         world = to_frame(points, poses) if len(points) else points
+        if len(points):
+            directions = to_frame(directions, np.column_stack([np.zeros((len(poses), 2)),
+                                                               poses[:, 2]]))
         self.frame = self.odometry_frame
         sensor = self.odometry.at(np.array([time]), self.max_extrapolation)[0]
-        return self.tracker.step(world, time, sensor=sensor[:2], offsets=offsets)
+        return self.tracker.step(world, time, sensor=sensor[:2], offsets=offsets,
+                                 directions=directions)

@@ -21,13 +21,15 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 6. the velocity settles the heading (heading_turn): when it points backwards (pi) or across
    (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
    turned round, or fitted anew along the velocity (shape.fit_at); a track is reported only once
-   its heading is settled so (or known too slow to tell, or after SETTLE_TIME); the rectangle
-   grows or moves to contain the matched points (shape.contain);
+   its heading is settled so (or known too slow to tell on 3 updates in a row, or after
+   SETTLE_TIME); the rectangle grows or moves to contain the matched points (shape.contain), and
+   is cut back where beams pass through it (free_space.carve: a prior longer than the object);
 7. a cluster no track took, or taken by a coasting track that it could not correct, starts a
    track if it has min_pairs points and is not larger than max_size_ratio x the size class's
    prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
-   found again), as is a track not updated for more than max_age seconds;
+   found again), as is a track not updated for more than max_age seconds (max_hidden_age while
+   the beams towards it return from something nearer: free_space.blocked_share);
 8. two-point start: a track never corrected whose one cluster it cannot match (an object that
    moved farther than the fine association reaches from a start at rest) is fitted anew to the
    cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
@@ -60,6 +62,7 @@ from ..types import Landmarks, Observations
 from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigid_correction)
 from .clustering import cluster_consecutive, cluster_ends
 from .fine import boundary_covariance, match
+from .free_space import beams, blocked_share, carve, near
 from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
                           turning_prediction)
 from .parameters import TrackerConfig
@@ -76,6 +79,19 @@ SIGMAS_TO_TURN, VOTES_TO_TURN = 1.0, 3
 """The heading is turned (or confirmed) when the velocity points elsewhere (or the same way) by
 more than 1 of its stds (the filter's velocity std is about 0.7 m/s at 40 Hz with accel_sigma 4,
 far more than its actual error) on 3 updates in a row."""
+CARVE_SHARE, CARVE_ANGLE = 0.1, np.deg2rad(20.0)
+"""A beam cuts the rectangle's length (width) back only when it crosses the length (width) axis
+at CARVE_ANGLE or more and its path through the rectangle runs along at least CARVE_SHARE of the
+width (length), and 2 point_sigma (free_space.carve): a heading a few degrees off while the
+object turns makes a beam along a face look as if it passed through the rectangle."""
+MOVED_IN_SCAN = 1.0
+"""Beams within the rectangle's enclosing circle grown by this much [m] are tested against it
+(the object moves while the scan turns: 25 ms at 40 m/s)."""
+HIDDEN_SHARE = 0.9
+"""A coasting track is hidden (kept up to max_hidden_age) when this share of the beams towards
+its predicted rectangle return before reaching it."""
+SLOW_VOTE = -1.0
+"""heading_turn's vote for "too slow to tell" (not a turn it can return)."""
 SETTLE_TIME = 0.5
 """A track whose heading the velocity has not settled is reported after this time [s]."""
 
@@ -146,12 +162,16 @@ class LidarObjectTracker:
                 and (t.settled or self.time - t.born >= SETTLE_TIME)]
 
     def step(self, points: np.ndarray, time: float, sensor: Optional[np.ndarray] = None,
-             offsets: Optional[np.ndarray] = None) -> list[ObjectTrack]:
+             offsets: Optional[np.ndarray] = None,
+             directions: Optional[np.ndarray] = None) -> list[ObjectTrack]:
         """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
         tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
         [s] after `time` (default 0; an object's points are moved back by its predicted
-        velocity times their offset).  Raises InvalidInputError when time is not after the
-        previous scan's.  Returns the reported tracks."""
+        velocity times their offset), beam k along the unit vector directions[k] (K, 2)
+        (default: towards its point, or free_space.beam_directions; a beam with no return and
+        no direction tells nothing).
+        Raises InvalidInputError when time is not after the previous scan's.  Returns the
+        reported tracks."""
         if not np.isfinite(time) or (self.time is not None and time <= self.time):
             raise InvalidInputError(f'time: {time!r} is not after the previous scan '
                                     f'({self.time!r})')
@@ -162,6 +182,7 @@ class LidarObjectTracker:
             np.asarray(offsets, float).reshape(len(points))
         with np.errstate(invalid='ignore'):
             points = np.where(np.abs(points) <= MAX_COORDINATE, points, np.nan)
+        self._rays = beams(points, self.sensor, directions, 2 * config.point_sigma)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
         self._occluded = occluded
@@ -195,7 +216,10 @@ class LidarObjectTracker:
             elif track.hits >= config.min_hits:
                 lost.update({cluster: track for cluster in clusters})
         largest = config.max_size_ratio * max(config.priors())
-        self.tracks = [t for t in self.tracks if time - t.updated <= config.max_age
+        self.tracks = [t for t in self.tracks if (
+                           time - t.updated <= config.max_age
+                           or (time - t.updated <= config.max_hidden_age
+                               and t.hits >= config.min_hits and self._hidden(t)))
                        and max(t.length, t.width) <= largest
                        and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
         self._drop_duplicates(time)
@@ -217,6 +241,19 @@ class LidarObjectTracker:
         new.id = old.id
         self._next_id -= 1
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
+
+    def _hidden(self, track: ObjectTrack) -> bool:
+        """Whether no beam of this scan reaches the track's predicted rectangle: at least
+        HIDDEN_SHARE of the beams towards it return before it (something nearer hides it), or
+        none points at it (outside the field of view)."""
+        x = track.filter.x
+        r = rotation(x[2])
+        directions, free, returned = self._rays
+        half = np.array([track.length, track.width]) / 2
+        rays = near(self.sensor, directions, x[:2], float(np.hypot(*half)))
+        share = blocked_share((self.sensor - x[:2]) @ r, directions[rays] @ r, free[rays],
+                              returned[rays], -half, half)
+        return share is None or share >= HIDDEN_SHARE
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
@@ -276,16 +313,21 @@ class LidarObjectTracker:
                     members.setdefault(int(np.argmin(distance[row])), []).append(int(cluster))
         return members
 
-    def _edges(self, points: np.ndarray, clusters: list, ends: np.ndarray,
-               edges: np.ndarray) -> list[EdgePoint]:
-        """EdgePoint of each cluster end flagged as an object edge."""
+    def _edges(self, points: np.ndarray, labels: np.ndarray, clusters: list,
+               ends: np.ndarray, edges: np.ndarray) -> list[EdgePoint]:
+        """EdgePoint of each cluster end flagged as an object edge, unless the next beam out
+        belongs to another of the object's clusters (a face seen at a grazing angle, its
+        returns farther apart than cluster_gap and edge_jump, goes on there)."""
         result = []
         for cluster in clusters:
             first, last = ends[cluster]
             if last - first < 1:
                 continue
-            for end, inner, flagged in ((first, first + 1, edges[cluster, 0]),
-                                        (last, last - 1, edges[cluster, 1])):
+            for end, inner, outer, flagged in (
+                    (first, first + 1, first - 1, edges[cluster, 0]),
+                    (last, last - 1, last + 1, edges[cluster, 1])):
+                if flagged and 0 <= outer < len(labels) and labels[outer] in clusters:
+                    continue
                 if flagged:
                     step = points[end] - points[inner]
                     spacing = float(np.hypot(*step))
@@ -317,8 +359,8 @@ class LidarObjectTracker:
                       config.time_budget_ms, config.max_nodes, self.sensor)
         if len(pairs) < config.min_pairs:
             return False
-        correction = self._correction(track, sample, boundary, pairs, points, clusters, ends,
-                                      edges)
+        correction = self._correction(track, sample, boundary, pairs, points, labels,
+                                      clusters, ends, edges)
         elapsed = time - track.updated
         z = fictitious_measurement(x[:2], x[2], track.last[:2], track.last[2], correction,
                                    elapsed)
@@ -337,9 +379,10 @@ class LidarObjectTracker:
                                      FLIP_RATE * max(config.priors()), SIGMAS_TO_TURN)
         told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= FLIP_RATE * max(
             config.priors()))  # the velocity told (else: known to be too slow to tell)
-        if told:
-            track.votes = track.votes + 1 if turn == track.vote else 1
-            track.vote = turn
+        if settled:  # a turn, or too slow to tell, must hold on VOTES_TO_TURN updates in a row
+            vote = turn if told else SLOW_VOTE
+            track.votes = track.votes + 1 if vote == track.vote else 1
+            track.vote = vote
             if track.votes < VOTES_TO_TURN:
                 turn, settled = 0.0, False
         else:
@@ -352,7 +395,8 @@ class LidarObjectTracker:
         elif turn:  # the axes were mistaken: the rectangle anew along the velocity
             hidden = self._occluded[clusters[0]] if len(clusters) == 1 else None
             centre, yaw, length, width = fit_at(scan, x[2] + turn, *self.config.priors(),
-                                                sensor=self.sensor, occluded=hidden)
+                                                sensor=self.sensor, occluded=hidden,
+                                                directed=True)
             x[:3] = [centre[0], centre[1], yaw]
             track.length, track.width = length, width
         x[2] = wrap_angle(x[2])
@@ -360,20 +404,21 @@ class LidarObjectTracker:
         return True
 
     def _correction(self, track: ObjectTrack, sample: np.ndarray, boundary: np.ndarray,
-                    pairs: np.ndarray, points: np.ndarray, clusters: list, ends: np.ndarray,
-                    edges: np.ndarray) -> Correction:
+                    pairs: np.ndarray, points: np.ndarray, labels: np.ndarray,
+                    clusters: list, ends: np.ndarray, edges: np.ndarray) -> Correction:
         config = self.config
         x = track.filter.x
         if config.transform == 'point_to_line':
             return point_to_line_correction(
-                sample, boundary, pairs, track.corners(), self._edges(points, clusters, ends,
-                                                                       edges),
+                sample, boundary, pairs, track.corners(),
+                self._edges(points, labels, clusters, ends, edges),
                 x[:2], track.filter.p[:3, :3], config.point_sigma, sensor=self.sensor)
         return rigid_correction(sample, boundary, pairs, x[:2], config.transform == 'ransac',
                                 config.ransac_threshold)
 
     def _grow(self, track: ObjectTrack, matched: np.ndarray, scan: np.ndarray) -> None:
-        """Step 6: contain the matched points; the anchor becomes this scan's centroid."""
+        """Step 6: contain the matched points, then cut back what beams pass through
+        (free_space.carve); the anchor becomes this scan's centroid."""
         x = track.filter.x
         r = rotation(x[2])
         body = (matched - x[:2]) @ r
@@ -381,6 +426,18 @@ class LidarObjectTracker:
                                                    (self.sensor - x[:2]) @ r,
                                                    2 * self.config.point_sigma)
         x[:2] = x[:2] + r @ shift
+        body = (scan - x[:2]) @ r
+        half = np.array([track.length, track.width]) / 2
+        directions, free, returned = self._rays
+        rays = near(self.sensor, directions, x[:2], float(np.hypot(*half)) + MOVED_IN_SCAN)
+        origins = (self.sensor - x[:2] - self._offsets[rays, None] * x[3:5]) @ r
+        low, high = carve(-half, half, body.min(axis=0), body.max(axis=0), origins,
+                          directions[rays] @ r, free[rays],
+                          min_depth=2 * self.config.point_sigma, share=CARVE_SHARE,
+                          min_sine=np.sin(CARVE_ANGLE), returned=returned[rays],
+                          margin=2 * self.config.point_sigma)
+        track.length, track.width = high - low
+        x[:2] = x[:2] + r @ ((low + high) / 2)
         track.anchor = (scan.mean(axis=0) - x[:2]) @ r
 
     def _fit(self, cluster: np.ndarray, occluded: np.ndarray

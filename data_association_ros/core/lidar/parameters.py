@@ -107,6 +107,9 @@ PARAMETERS = (
     _float('yaw_rate_sigma', 0.5, 'measurement noise floor on the yaw rate [rad/s]'),
     _float('max_age', 1.0, 'a track not updated for longer than this is dropped [s]',
            low_open=False),
+    _float('max_hidden_age', 3.0, 'a track hidden behind something nearer (no beam reaches its '
+           'predicted rectangle) is kept up to this long without update instead of max_age [s] '
+           '(at least max_age counts)', low_open=False),
     _int('min_hits', 3, 'a track is reported once updated on this many scans', 1, 100000),
 )
 BY_NAME = {p.name: p for p in PARAMETERS}
@@ -147,6 +150,7 @@ class TrackerConfig:
     velocity_sigma: float = 0.5
     yaw_rate_sigma: float = 0.5
     max_age: float = 1.0
+    max_hidden_age: float = 3.0
     min_hits: int = 3
 
     def __post_init__(self) -> None:

@@ -114,15 +114,16 @@ def fit_rectangle(points: np.ndarray, prior_length: float, prior_width: float,
 
 
 def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: float,
-           sensor: np.ndarray = np.zeros(2), occluded: Optional[np.ndarray] = None
-           ) -> tuple[np.ndarray, float, float, float]:
-    """(centre (2,), yaw, length, width) of the rectangle along `yaw` (or yaw + pi: pointing
-    away from the sensor) around the cluster (K, 2, scan order), completed to the priors as in
-    fit_rectangle."""
+           sensor: np.ndarray = np.zeros(2), occluded: Optional[np.ndarray] = None,
+           directed: bool = False) -> tuple[np.ndarray, float, float, float]:
+    """(centre (2,), yaw, length, width) of the rectangle along `yaw` around the cluster (K, 2,
+    scan order), completed to the priors as in fit_rectangle.  The heading is yaw when
+    `directed` (known, e.g. from the velocity), else yaw or yaw + pi, whichever points away from
+    the sensor."""
     u = rotation(yaw)
     body = points @ u  # (along heading, across)
     away = u[:, 0] @ (points.mean(axis=0) - sensor)
-    if away < 0:  # heading away from the sensor
+    if away < 0 and not directed:  # heading away from the sensor
         yaw, u, body = yaw + np.pi, -u, -body
     sensor_body = np.asarray(sensor, float) @ u
     hidden_end = None

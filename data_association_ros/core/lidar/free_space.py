@@ -1,0 +1,185 @@
+"""Free space along the beams (added to seed 003, see object_tracker): a beam that returns from
+beyond an object's rectangle, or returns nothing, shows that the rectangle is not there, so an
+extent completed by the size prior on the hidden side is cut back to where the beam passes (a
+3.8 m car seen whole no longer keeps a 4.5 m prior).
+
+Beams are rays o + t d, t in [0, free], free = range - margin (inf for no return).  In the
+rectangle's frame (axes u along the heading, v across) the box is [low_u, high_u] x [low_v,
+high_v]; a ray passes through it when its free part meets the box (slab test).
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+import numpy as np
+
+LINEAR_TOLERANCE = 1e-3
+"""Beam angles of a scan are taken as evenly spaced when a line in the beam index fits the
+angles of the returns to within this many [rad] (a LaserScan: exactly)."""
+
+
+def beam_directions(points: np.ndarray) -> np.ndarray:
+    """Unit beam directions (K, 2) of a scan's points (K, 2) in the sensor frame, in beam order
+    (non-finite: no return).  A beam without a return gets the direction of its index on the
+    line through the first and last return's angles when every return lies on it
+    (LINEAR_TOLERANCE: evenly spaced beams), else NaN (nothing is known about it)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    directions = np.full(points.shape, np.nan)
+    valid = np.all(np.isfinite(points), axis=1) & (np.hypot(points[:, 0], points[:, 1]) > 0)
+    index = np.flatnonzero(valid)
+    angles = np.arctan2(points[valid, 1], points[valid, 0])
+    directions[valid] = np.column_stack([np.cos(angles), np.sin(angles)])
+    if len(index) < 2 or len(index) == len(points):
+        return directions
+    angles = np.unwrap(angles)
+    slope = (angles[-1] - angles[0]) / (index[-1] - index[0])  # the line through the end beams
+    intercept = angles[0] - slope * index[0]
+    if np.max(np.abs(angles - (slope * index + intercept))) > LINEAR_TOLERANCE:
+        return directions
+    missing = np.flatnonzero(~valid)
+    fitted = slope * missing + intercept
+    directions[missing] = np.column_stack([np.cos(fitted), np.sin(fitted)])
+    return directions
+
+
+def _slab(origin: np.ndarray, direction: np.ndarray, low: float, high: float
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """(t_enter, t_exit) (R,) of rays (R,) (one coordinate) within [low, high]; empty
+    (enter > exit) when a ray parallel to the slab lies outside it."""
+    with np.errstate(divide='ignore', invalid='ignore'):
+        a, b = (low - origin) / direction, (high - origin) / direction
+    parallel = np.abs(direction) < 1e-12
+    inside = (origin >= low) & (origin <= high)
+    enter = np.where(parallel, np.where(inside, -np.inf, np.inf), np.minimum(a, b))
+    leave = np.where(parallel, np.where(inside, np.inf, -np.inf), np.maximum(a, b))
+    return enter, leave
+
+
+def beams(points: np.ndarray, sensor: np.ndarray, directions: Optional[np.ndarray],
+          margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(unit directions (K, 2), free lengths (K,), returned (K,) bool) of a scan's beams from
+    `sensor` (2,): towards the point (or directions[k] where given, NaN unknown; by default
+    beam_directions of the points seen from the sensor), free up to `margin` [m] before the
+    return; a beam without one is free up to `margin` before the farthest return of the scan
+    (no return can mean out of range: the sensor reaches at least that far)."""
+    delta = np.asarray(points, float) - sensor
+    distance = np.hypot(delta[:, 0], delta[:, 1])
+    returned = np.isfinite(distance) & (distance > 0)
+    with np.errstate(invalid='ignore', divide='ignore'):
+        own = delta / distance[:, None]
+    if directions is None:
+        directions = beam_directions(delta)
+    directions = np.where(returned[:, None], own, np.asarray(directions, float))
+    reach = distance[returned].max() if returned.any() else 0.0
+    return directions, np.where(returned, distance, reach) - margin, returned
+
+
+def near(origin: np.ndarray, directions: np.ndarray, centre: np.ndarray,
+         radius: float) -> np.ndarray:
+    """Indices of the rays from `origin` (2,) along unit `directions` (R, 2) that pass within
+    `radius` [m] of `centre` (2,) ahead of the origin (a box's enclosing circle: the only rays
+    that can meet the box)."""
+    delta = np.asarray(centre, float) - origin
+    with np.errstate(invalid='ignore'):
+        across = np.abs(directions[:, 0] * delta[1] - directions[:, 1] * delta[0])
+        along = directions @ delta
+        return np.flatnonzero((across <= radius) & (along >= -radius))
+
+
+def through_box(origins: np.ndarray, directions: np.ndarray, low: np.ndarray,
+                high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(t_enter, t_exit) (R,) of rays (origins (R, 2) or (2,), unit directions (R, 2)) through
+    the box [low, high] (2,) (slab test; a ray misses it when exit <= max(enter, 0))."""
+    origins = np.broadcast_to(np.asarray(origins, float), np.shape(directions))
+    return _box(_spans(origins, directions, low, high))
+
+
+def _spans(origins: np.ndarray, directions: np.ndarray, low: np.ndarray, high: np.ndarray
+           ) -> list:
+    """[(t_enter, t_exit) of the u slab, of the v slab] (_slab) of rays (R,) per axis."""
+    return [_slab(origins[:, k], directions[:, k], low[k], high[k]) for k in range(2)]
+
+
+def _box(spans: list) -> tuple[np.ndarray, np.ndarray]:
+    """(t_enter, t_exit) of the box from its two slabs' spans."""
+    return np.maximum(spans[0][0], spans[1][0]), np.minimum(spans[0][1], spans[1][1])
+
+
+def blocked_share(origin: np.ndarray, directions: np.ndarray, free: np.ndarray,
+                  returned: np.ndarray, low: np.ndarray, high: np.ndarray) -> Optional[float]:
+    """Share of the beams from `origin` (2,) towards the box [low, high] (2,) that return before
+    entering it (something nearer hides it), or None when no beam points at it."""
+    with np.errstate(invalid='ignore'):
+        enter, leave = through_box(origin, directions, low, high)
+        towards = np.all(np.isfinite(directions), axis=1) & (leave > np.maximum(enter, 0.0))
+    if not towards.any():
+        return None
+    return float(np.mean(returned[towards] & (free[towards] < enter[towards])))
+
+
+def carve(low: np.ndarray, high: np.ndarray, seen_low: np.ndarray, seen_high: np.ndarray,
+          origins: np.ndarray, directions: np.ndarray, free: np.ndarray,
+          min_depth: float = 0.0, share: float = 0.0, min_sine: float = 0.0,
+          returned: Optional[np.ndarray] = None,
+          margin: float = 0.0
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """The box [low, high] (2,) (object frame, u and v) cut back, one side at a time, until no
+    ray (origins (R, 2), unit directions (R, 2), free lengths (R,), object frame) passes through
+    it.  A side is only cut down to the span of the seen points [seen_low, seen_high] (2,);
+    each passing ray cuts the side that loses the least; a ray no such cut clears (it passes
+    through the seen span: noise) is ignored.  A ray cuts an extent along one axis only when it
+    crosses that axis at an angle whose sine is at least min_sine and its path in the box runs
+    at least max(min_depth, share x the box's extent) [m] along the other axis (a ray nearly
+    parallel to a face crosses the box where the heading is a little off: not evidence).  A
+    beam that `returned` (R,) bool, its free length ending `margin` [m] before the return, from
+    within the box grown by margin hit the object (a corner seen at a grazing angle): ignored."""
+    low, high = np.array(low, float), np.array(high, float)
+    origins, directions = np.asarray(origins, float), np.asarray(directions, float)
+    free = np.asarray(free, float)
+    keep = np.all(np.isfinite(origins), axis=1) & np.all(np.isfinite(directions), axis=1) \
+        & ~np.isnan(free) & (free > 0)
+    if returned is not None:  # a beam that returned from the box (grown by margin) hit it
+        with np.errstate(invalid='ignore'):
+            ends = origins + directions * (free + margin)[:, None]
+            keep &= ~(np.asarray(returned, bool)
+                      & np.all((ends >= low - margin) & (ends <= high + margin), axis=1))
+    origins, directions, free = origins[keep], directions[keep], free[keep]
+    for _ in range(8):  # every cut can only shrink the box; a few passes settle it
+        spans = _spans(origins, directions, low, high)
+        enter, leave = _box(spans)
+        enter, leave = np.maximum(enter, 0.0), np.minimum(leave, free)
+        passing = np.flatnonzero(leave - enter > 0)
+        if not passing.size:
+            break
+        changed = False
+        for ray in passing:
+            best = None
+            inside = leave[ray] - enter[ray]
+            for k in range(2):
+                other = 1 - k
+                if abs(directions[ray, other]) < min_sine or abs(
+                        directions[ray, other]) * inside < max(
+                        min_depth, share * (high[other] - low[other])):
+                    continue  # grazing along axis k (a small heading error): no evidence
+                s0, s1 = spans[other][0][ray], spans[other][1][ray]
+                t0, t1 = max(s0, 0.0), min(s1, free[ray])
+                if t0 >= t1:
+                    continue
+                ends = origins[ray, k] + directions[ray, k] * np.array([t0, t1])
+                for side, limit in ((1, ends.min()), (0, ends.max())):
+                    if side == 1 and seen_high[k] <= limit < high[k]:
+                        cut = (high[k] - limit, k, side, limit)
+                    elif side == 0 and low[k] < limit <= seen_low[k]:
+                        cut = (limit - low[k], k, side, limit)
+                    else:
+                        continue
+                    if best is None or cut[0] < best[0]:
+                        best = cut
+            if best is not None:
+                _, k, side, limit = best
+                (high if side else low)[k] = limit
+                changed = True
+                spans = _spans(origins, directions, low, high)
+        if not changed:
+            break
+    return low, high
