@@ -3,7 +3,8 @@ beyond an object's rectangle, or returns nothing, shows that the rectangle is no
 extent completed by the size prior on the hidden side is cut back to where the beam passes (a
 3.8 m car seen whole no longer keeps a 4.5 m prior).
 
-Beams are rays o + t d, t in [0, free], free = range - margin (inf for no return).  In the
+Beams are rays o + t d, t in [0, free], free = range - margin (for a beam without a return:
+the farthest return of the scan - margin).  In the
 rectangle's frame (axes u along the heading, v across) the box is [low_u, high_u] x [low_v,
 high_v]; a ray passes through it when its free part meets the box (slab test).
 """
@@ -13,9 +14,9 @@ from typing import Optional
 
 import numpy as np
 
-LINEAR_TOLERANCE = 1e-3
-"""Beam angles of a scan are taken as evenly spaced when a line in the beam index fits the
-angles of the returns to within this many [rad] (a LaserScan: exactly)."""
+LINEAR_TOLERANCE = 0.1
+"""Beam angles of a scan are taken as evenly spaced when every return's angle lies within this
+share of one beam step of the line through the first and last return (a LaserScan: exactly)."""
 
 
 def beam_directions(points: np.ndarray) -> np.ndarray:
@@ -29,12 +30,12 @@ def beam_directions(points: np.ndarray) -> np.ndarray:
     index = np.flatnonzero(valid)
     angles = np.arctan2(points[valid, 1], points[valid, 0])
     directions[valid] = np.column_stack([np.cos(angles), np.sin(angles)])
-    if len(index) < 2 or len(index) == len(points):
+    if len(index) < 3 or len(index) == len(points):  # two returns prove no spacing
         return directions
     angles = np.unwrap(angles)
     slope = (angles[-1] - angles[0]) / (index[-1] - index[0])  # the line through the end beams
     intercept = angles[0] - slope * index[0]
-    if np.max(np.abs(angles - (slope * index + intercept))) > LINEAR_TOLERANCE:
+    if np.max(np.abs(angles - (slope * index + intercept))) > LINEAR_TOLERANCE * abs(slope):
         return directions
     missing = np.flatnonzero(~valid)
     fitted = slope * missing + intercept
@@ -105,16 +106,19 @@ def _box(spans: list) -> tuple[np.ndarray, np.ndarray]:
     return np.maximum(spans[0][0], spans[1][0]), np.minimum(spans[0][1], spans[1][1])
 
 
-def blocked_share(origin: np.ndarray, directions: np.ndarray, free: np.ndarray,
-                  returned: np.ndarray, low: np.ndarray, high: np.ndarray) -> Optional[float]:
-    """Share of the beams from `origin` (2,) towards the box [low, high] (2,) that return before
-    entering it (something nearer hides it), or None when no beam points at it."""
+def blocked_share(origins: np.ndarray, directions: np.ndarray, free: np.ndarray,
+                  returned: np.ndarray, low: np.ndarray, high: np.ndarray,
+                  margin: float) -> Optional[float]:
+    """Share of the beams (origins (R, 2) or (2,), unit directions (R, 2), free lengths ending
+    `margin` [m] before their returns) towards the box [low, high] (2,) that return more than
+    margin before entering it (something nearer hides it; a return from its face is the object
+    itself), or None when no beam points at it."""
     with np.errstate(invalid='ignore'):
-        enter, leave = through_box(origin, directions, low, high)
+        enter, leave = through_box(origins, directions, low, high)
         towards = np.all(np.isfinite(directions), axis=1) & (leave > np.maximum(enter, 0.0))
     if not towards.any():
         return None
-    return float(np.mean(returned[towards] & (free[towards] < enter[towards])))
+    return float(np.mean(returned[towards] & (free[towards] + 2 * margin < enter[towards])))
 
 
 def carve(low: np.ndarray, high: np.ndarray, seen_low: np.ndarray, seen_high: np.ndarray,

@@ -84,9 +84,6 @@ CARVE_SHARE, CARVE_ANGLE = 0.1, np.deg2rad(20.0)
 at CARVE_ANGLE or more and its path through the rectangle runs along at least CARVE_SHARE of the
 width (length), and 2 point_sigma (free_space.carve): a heading a few degrees off while the
 object turns makes a beam along a face look as if it passed through the rectangle."""
-MOVED_IN_SCAN = 1.0
-"""Beams within the rectangle's enclosing circle grown by this much [m] are tested against it
-(the object moves while the scan turns: 25 ms at 40 m/s)."""
 HIDDEN_SHARE = 0.9
 """A coasting track is hidden (kept up to max_hidden_age) when this share of the beams towards
 its predicted rectangle return before reaching it."""
@@ -167,9 +164,9 @@ class LidarObjectTracker:
         """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
         tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
         [s] after `time` (default 0; an object's points are moved back by its predicted
-        velocity times their offset), beam k along the unit vector directions[k] (K, 2)
-        (default: towards its point, or free_space.beam_directions; a beam with no return and
-        no direction tells nothing).
+        velocity times their offset), a beam without a return along the unit vector
+        directions[k] (K, 2) (default: free_space.beam_directions; NaN: unknown, it tells
+        nothing; a beam with a return runs from the sensor to its point).
         Raises InvalidInputError when time is not after the previous scan's.  Returns the
         reported tracks."""
         if not np.isfinite(time) or (self.time is not None and time <= self.time):
@@ -182,6 +179,11 @@ class LidarObjectTracker:
             np.asarray(offsets, float).reshape(len(points))
         with np.errstate(invalid='ignore'):
             points = np.where(np.abs(points) <= MAX_COORDINATE, points, np.nan)
+        if directions is not None:
+            directions = np.asarray(directions, float)
+            if directions.shape != points.shape:
+                raise InvalidInputError(f'directions: shape {directions.shape} is not the '
+                                        f'points\' {points.shape}')
         self._rays = beams(points, self.sensor, directions, 2 * config.point_sigma)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
@@ -243,17 +245,32 @@ class LidarObjectTracker:
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
 
     def _hidden(self, track: ObjectTrack) -> bool:
-        """Whether no beam of this scan reaches the track's predicted rectangle: at least
-        HIDDEN_SHARE of the beams towards it return before it (something nearer hides it), or
-        none points at it (outside the field of view)."""
+        """Whether the track's predicted rectangle is hidden in this scan: at least
+        HIDDEN_SHARE of the beams towards it return before it (something nearer hides it;
+        free_space.blocked_share), or none points at it (outside the field of view, or a scan
+        whose beams without a return have no known direction)."""
+        half = np.array([track.length, track.width]) / 2
+        origins, directions, free, returned = self._body_rays(track, half)
+        share = blocked_share(origins, directions, free, returned, -half, half,
+                              2 * self.config.point_sigma)
+        return share is None or share >= HIDDEN_SHARE
+
+    def _body_rays(self, track: ObjectTrack, half: np.ndarray,
+                   velocity: Optional[np.ndarray] = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(origins, directions (R, 2), free lengths, returned (R,)) of this scan's beams that
+        can meet the track's rectangle (half extents `half` (2,)), in its frame; with
+        `velocity` (2,) each beam moved back by velocity x its time offset, as the object's
+        points are (free_space.near's circle grown by the largest such move)."""
         x = track.filter.x
         r = rotation(x[2])
         directions, free, returned = self._rays
-        half = np.array([track.length, track.width]) / 2
-        rays = near(self.sensor, directions, x[:2], float(np.hypot(*half)))
-        share = blocked_share((self.sensor - x[:2]) @ r, directions[rays] @ r, free[rays],
-                              returned[rays], -half, half)
-        return share is None or share >= HIDDEN_SHARE
+        moves = np.zeros((len(free), 2)) if velocity is None else \
+            self._offsets[:, None] * velocity
+        reach = float(np.hypot(*half)) + float(np.max(np.hypot(*moves.T), initial=0.0))
+        rays = near(self.sensor, directions, x[:2], reach)
+        return ((self.sensor - x[:2] - moves[rays]) @ r, directions[rays] @ r, free[rays],
+                returned[rays])
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
@@ -342,6 +359,7 @@ class LidarObjectTracker:
         the pairs are degenerate."""
         config = self.config
         x = track.filter.x
+        self._compensation = x[3:5].copy()  # the velocity the points are moved back with
         member = np.isin(labels, clusters)
         if np.any(self._offsets[member]):  # the object moved while the beam turned
             points = points.copy()
@@ -351,8 +369,8 @@ class LidarObjectTracker:
         boundary = track.boundary(config.boundary_spacing, config.max_boundary_points,
                                   self.sensor)
         low, high = sample.min(axis=0) - 1.0, sample.max(axis=0) + 1.0
-        near = np.all((boundary >= low) & (boundary <= high), axis=1)
-        boundary = boundary[near]
+        close = np.all((boundary >= low) & (boundary <= high), axis=1)
+        boundary = boundary[close]
         joint = boundary_covariance(boundary, x[:2], track.filter.p[:3, :3], config.point_sigma)
         pairs = match(sample, boundary, joint, config.fine, config.jnis, config.point_sigma,
                       config.bearing_sigma, config.nearest_cutoff, config.gate_probability,
@@ -428,14 +446,11 @@ class LidarObjectTracker:
         x[:2] = x[:2] + r @ shift
         body = (scan - x[:2]) @ r
         half = np.array([track.length, track.width]) / 2
-        directions, free, returned = self._rays
-        rays = near(self.sensor, directions, x[:2], float(np.hypot(*half)) + MOVED_IN_SCAN)
-        origins = (self.sensor - x[:2] - self._offsets[rays, None] * x[3:5]) @ r
-        low, high = carve(-half, half, body.min(axis=0), body.max(axis=0), origins,
-                          directions[rays] @ r, free[rays],
-                          min_depth=2 * self.config.point_sigma, share=CARVE_SHARE,
-                          min_sine=np.sin(CARVE_ANGLE), returned=returned[rays],
-                          margin=2 * self.config.point_sigma)
+        origins, directions, free, returned = self._body_rays(track, half, self._compensation)
+        margin = 2 * self.config.point_sigma
+        low, high = carve(-half, half, body.min(axis=0), body.max(axis=0), origins, directions,
+                          free, min_depth=margin, share=CARVE_SHARE,
+                          min_sine=np.sin(CARVE_ANGLE), returned=returned, margin=margin)
         track.length, track.width = high - low
         x[:2] = x[:2] + r @ ((low + high) / 2)
         track.anchor = (scan.mean(axis=0) - x[:2]) @ r

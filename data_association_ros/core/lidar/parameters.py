@@ -107,9 +107,10 @@ PARAMETERS = (
     _float('yaw_rate_sigma', 0.5, 'measurement noise floor on the yaw rate [rad/s]'),
     _float('max_age', 1.0, 'a track not updated for longer than this is dropped [s]',
            low_open=False),
-    _float('max_hidden_age', 3.0, 'a track hidden behind something nearer (no beam reaches its '
-           'predicted rectangle) is kept up to this long without update instead of max_age [s] '
-           '(at least max_age counts)', low_open=False),
+    _float('max_hidden_age', 3.0, 'a confirmed track hidden behind something nearer (at least '
+           '90 % of the beams towards its predicted rectangle return before it, or none points '
+           'at it) is kept up to this long without update instead of max_age [s] (at least '
+           'max_age counts)', low_open=False),
     _int('min_hits', 3, 'a track is reported once updated on this many scans', 1, 100000),
 )
 BY_NAME = {p.name: p for p in PARAMETERS}
