@@ -134,17 +134,18 @@ def usage_text(node: str, doc: str, parameters: Sequence[NodeParameter], table: 
         f'ros2 param describe /{node} NAME):', *rows])
 
 
-def _interrupt_once() -> None:
-    """SIGINT raises KeyboardInterrupt the first time only.  Ctrl-C under `ros2 launch` reaches
-    a node twice (from the terminal and forwarded by launch): the second must not interrupt the
-    clean-up with a traceback.  Installed before rclpy.init, whose handler calls this one."""
-    raised = []
+INTERRUPTED: list = []
+"""The SIGINTs received (_interrupt_once)."""
 
-    def handler(signum, frame) -> None:
-        if not raised:
-            raised.append(signum)
-            raise KeyboardInterrupt
-    signal.signal(signal.SIGINT, handler)
+
+def _interrupt_once() -> None:
+    """SIGINT only records itself: rclpy's own handler (installed by rclpy.init, which calls
+    this one after it) shuts the context down, and the spin ends with ExternalShutdownException.
+    Raising KeyboardInterrupt here (as before) let it land anywhere, also inside rclpy's Task
+    constructor, whose half-built object then printed a traceback from its __del__; and Ctrl-C
+    under `ros2 launch` reaches a node twice (from the terminal and forwarded by launch).  A
+    SIGINT before rclpy.init is acted on once init is done (spin)."""
+    signal.signal(signal.SIGINT, lambda signum, frame: INTERRUPTED.append(signum))
 
 
 def freeze_start_up_objects() -> None:
@@ -166,6 +167,9 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
         return
     _interrupt_once()
     rclpy.init(args=args)
+    if INTERRUPTED:  # Ctrl-C before rclpy's handler was there
+        rclpy.shutdown()
+        return
     try:
         node = node_class()
     except StartupParameterError as error:
@@ -183,18 +187,17 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
             if rclpy.ok():
                 raise
             # Ctrl-C: rclpy's handler shut the context down before spin was under way (its
-            # executor cannot be made); Python delivers the KeyboardInterrupt later
+            # executor cannot be made)
         finally:
             _stop(node)
-    except KeyboardInterrupt:   # that late KeyboardInterrupt, raised while stopping
+    except KeyboardInterrupt:   # a KeyboardInterrupt raised by anything else while stopping
         _stop(node)
 
 
 def _stop(node: Node) -> None:
     """Ignore any further SIGINT (else the interpreter's exit restores the default action and a
     late second Ctrl-C ends the process by the signal, exit code -2), destroy the node once,
-    shut rclpy down; a stop interrupted by the first Ctrl-C's late KeyboardInterrupt is begun
-    again by the caller."""
+    shut rclpy down; a stop interrupted by a KeyboardInterrupt is begun again by the caller."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if not getattr(node, '_stopped', False):
         node.destroy_node()
