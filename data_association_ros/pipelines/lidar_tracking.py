@@ -118,13 +118,13 @@ class LidarTracking:
         if not np.isfinite(time_increment) or time_increment < 0:
             time_increment = 0.0
         offsets = np.arange(len(points)) * time_increment
-        directions = beam_directions(points)
-        if not len(self.odometry):
+        if not len(self.odometry):  # the tracker finds the beam directions itself
             self.frame = scan_frame
-            return self.tracker.step(points, time, offsets=offsets, directions=directions)
+            return self.tracker.step(points, time, offsets=offsets)
         poses = self.odometry.at(time + (offsets if len(points) else np.zeros(1)),
                                  self.max_extrapolation)
         world = to_frame(points, poses) if len(points) else points
+        directions = beam_directions(points)  # in the sensor frame, turned with each beam
         if len(points):
             directions = to_frame(directions, np.column_stack([np.zeros((len(poses), 2)),
                                                                poses[:, 2]]))

@@ -144,6 +144,11 @@ class LidarObjectTracker:
         self.sensor = np.zeros(2)
         self._next_id = 1
 
+    @property
+    def _margin(self) -> float:
+        """The beams' free lengths end this far [m] before their returns: 2 point_sigma."""
+        return 2 * self.config.point_sigma
+
     def configure(self, config: TrackerConfig) -> None:
         """New parameters, from the next scan (tracks are kept)."""
         self.config = config
@@ -184,7 +189,7 @@ class LidarObjectTracker:
             if directions.shape != points.shape:
                 raise InvalidInputError(f'directions: shape {directions.shape} is not the '
                                         f'points\' {points.shape}')
-        self._rays = beams(points, self.sensor, directions, 2 * config.point_sigma)
+        self._rays = beams(points, self.sensor, directions, self._margin)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
         self._occluded = occluded
@@ -251,8 +256,7 @@ class LidarObjectTracker:
         whose beams without a return have no known direction)."""
         half = np.array([track.length, track.width]) / 2
         origins, directions, free, returned = self._body_rays(track, half)
-        share = blocked_share(origins, directions, free, returned, -half, half,
-                              2 * self.config.point_sigma)
+        share = blocked_share(origins, directions, free, returned, -half, half, self._margin)
         return share is None or share >= HIDDEN_SHARE
 
     def _body_rays(self, track: ObjectTrack, half: np.ndarray,
@@ -359,7 +363,7 @@ class LidarObjectTracker:
         the pairs are degenerate."""
         config = self.config
         x = track.filter.x
-        self._compensation = x[3:5].copy()  # the velocity the points are moved back with
+        compensation = x[3:5].copy()  # the velocity the points are moved back with
         member = np.isin(labels, clusters)
         if np.any(self._offsets[member]):  # the object moved while the beam turned
             points = points.copy()
@@ -418,7 +422,7 @@ class LidarObjectTracker:
             x[:3] = [centre[0], centre[1], yaw]
             track.length, track.width = length, width
         x[2] = wrap_angle(x[2])
-        self._grow(track, track.matched, scan)
+        self._grow(track, track.matched, scan, compensation)
         return True
 
     def _correction(self, track: ObjectTrack, sample: np.ndarray, boundary: np.ndarray,
@@ -434,9 +438,11 @@ class LidarObjectTracker:
         return rigid_correction(sample, boundary, pairs, x[:2], config.transform == 'ransac',
                                 config.ransac_threshold)
 
-    def _grow(self, track: ObjectTrack, matched: np.ndarray, scan: np.ndarray) -> None:
+    def _grow(self, track: ObjectTrack, matched: np.ndarray, scan: np.ndarray,
+              compensation: np.ndarray) -> None:
         """Step 6: contain the matched points, then cut back what beams pass through
-        (free_space.carve); the anchor becomes this scan's centroid."""
+        (free_space.carve; the beams moved back with `compensation` (2,), the velocity the
+        scan points were moved back with); the anchor becomes this scan's centroid."""
         x = track.filter.x
         r = rotation(x[2])
         body = (matched - x[:2]) @ r
@@ -446,11 +452,11 @@ class LidarObjectTracker:
         x[:2] = x[:2] + r @ shift
         body = (scan - x[:2]) @ r
         half = np.array([track.length, track.width]) / 2
-        origins, directions, free, returned = self._body_rays(track, half, self._compensation)
-        margin = 2 * self.config.point_sigma
+        origins, directions, free, returned = self._body_rays(track, half, compensation)
         low, high = carve(-half, half, body.min(axis=0), body.max(axis=0), origins, directions,
-                          free, min_depth=margin, share=CARVE_SHARE,
-                          min_sine=np.sin(CARVE_ANGLE), returned=returned, margin=margin)
+                          free, min_depth=self._margin, share=CARVE_SHARE,
+                          min_sine=np.sin(CARVE_ANGLE), returned=returned,
+                          margin=self._margin)
         track.length, track.width = high - low
         x[:2] = x[:2] + r @ ((low + high) / 2)
         track.anchor = (scan.mean(axis=0) - x[:2]) @ r
