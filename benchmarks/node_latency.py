@@ -10,6 +10,8 @@ skipped by the node) against the median.
     python benchmarks/node_latency.py [--observations 50] [--landmarks 200] [--messages 200]
                                       [--algorithms mahalanobis_nn,gnn,jcbb]
                                       (NAME:nojit: the node without the compiled JCBB search)
+                                      [--baseline DIR]  (each algorithm also from the checkout
+                                      DIR, e.g. a `git worktree` of an older commit, alternating)
 """
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ import random
 import subprocess
 import sys
 import time
+from typing import Optional
 
 import numpy as np
 
@@ -84,16 +87,22 @@ def scene(observations: int, landmarks: int, seed: int = 0):
 
 
 def measure(namespace: str, command: list[str], args, landmark_points, observation_points,
-            pose, needs_inputs: bool = True) -> np.ndarray:
+            pose, needs_inputs: bool = True, code: Optional[str] = None) -> np.ndarray:
     """Round-trip times [ms] of the args.warmup + args.messages observation messages through one
-    server (NaN for a message not answered within 5 s)."""
+    server (NaN for a message not answered within 5 s); code: a checkout whose package the
+    server runs (PYTHONPATH), None: this one."""
     no_jit = command[-1].endswith(':nojit')
     if no_jit:
         command = command[:-1] + [command[-1][:-len(':nojit')]]
+    environment = dict(os.environ)
+    if no_jit:
+        environment['DATA_ASSOCIATION_ROS_NO_JIT'] = '1'
+    if code is not None:
+        environment['PYTHONPATH'] = os.pathsep.join(
+            [code] + [p for p in [environment.get('PYTHONPATH')] if p])
     process = subprocess.Popen(command + ['--ros-args', '-r', f'__ns:={namespace}'],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                               env={**os.environ, 'DATA_ASSOCIATION_ROS_NO_JIT': '1'} if no_jit
-                               else None)
+                               env=environment)
     node = rclpy.create_node('latency_client', namespace=namespace)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
@@ -147,6 +156,8 @@ def main() -> None:
     parser.add_argument('--messages', type=int, default=200)
     parser.add_argument('--warmup', type=int, default=10)
     parser.add_argument('--algorithms', default='mahalanobis_nn,gnn,jcbb')
+    parser.add_argument('--baseline', metavar='DIR',
+                        help='also run each algorithm from this checkout (alternating)')
     parser.add_argument('--echo', action='store_true', help=argparse.SUPPRESS)
     args, ros_arguments = parser.parse_known_args()
     if args.echo:
@@ -156,18 +167,21 @@ def main() -> None:
     landmark_points, observation_points, pose = scene(args.observations, args.landmarks)
     here = os.path.abspath(__file__)
     servers = [('bare rclpy echo', [sys.executable, here, '--echo', '--observations',
-                                    str(args.observations)])]
-    servers += [(name, [sys.executable, '-m', 'data_association_ros.nodes.association_node', '--ros-args', '-p',
-                        f'algorithm:={name}'])
-                for name in args.algorithms.split(',')]
+                                    str(args.observations)], None)]
+    for name in args.algorithms.split(','):
+        command = [sys.executable, '-m', 'data_association_ros.nodes.association_node',
+                   '--ros-args', '-p', f'algorithm:={name}']
+        if args.baseline:
+            servers.append((f'{name} (baseline)', command, os.path.abspath(args.baseline)))
+        servers.append((name, command, None))
     print(f'K={args.observations} observations, N={args.landmarks} landmarks, '
           f'{args.messages} messages each, ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]}')
-    print(f'{"server":<18}{"answered":>9}{"median ms":>11}{"p99 ms":>9}{"x echo":>8}'
+    print(f'{"server":<26}{"answered":>9}{"median ms":>11}{"p99 ms":>9}{"x echo":>8}'
           f'{"p99 x echo":>11}{"first ms":>10}{"first/median":>13}')
     baseline = None
-    for index, (name, command) in enumerate(servers):
+    for index, (name, command, code) in enumerate(servers):
         everything = measure(f'/latency{index}', command, args, landmark_points,
-                             observation_points, pose, needs_inputs=index > 0)
+                             observation_points, pose, needs_inputs=index > 0, code=code)
         latencies = everything[args.warmup:]
         latencies = latencies[np.isfinite(latencies)]
         median = float(np.median(latencies)) if len(latencies) else float('nan')
@@ -175,7 +189,7 @@ def main() -> None:
         answered = everything[np.isfinite(everything)]
         first = float(answered[0]) if len(answered) else float('nan')
         baseline = (median, p99) if baseline is None else baseline
-        print(f'{name:<18}{len(latencies):>9}{median:>11.2f}{p99:>9.2f}'
+        print(f'{name:<26}{len(latencies):>9}{median:>11.2f}{p99:>9.2f}'
               f'{median / baseline[0]:>8.2f}{p99 / baseline[1]:>11.2f}{first:>10.2f}'
               f'{first / median:>13.2f}')
     rclpy.shutdown()

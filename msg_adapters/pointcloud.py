@@ -28,26 +28,34 @@ _DATATYPE_OF = {(dtype.kind, dtype.itemsize): datatype
 
 
 def cloud_dtype(fields: Sequence[PointField], point_step: int, is_bigendian: bool) -> np.dtype:
-    """Structured dtype of one point: the fields at their offsets, itemsize point_step."""
+    """Structured dtype of one point: the fields at their offsets, itemsize point_step (cached
+    by layout: a sensor sends the same one every message)."""
+    return _cloud_dtype(tuple((field.name, field.offset, field.datatype, field.count)
+                              for field in fields), point_step, bool(is_bigendian))
+
+
+@lru_cache(maxsize=256)
+def _cloud_dtype(fields: tuple[tuple[str, int, int, int], ...], point_step: int,
+                 is_bigendian: bool) -> np.dtype:
     names, formats, offsets = [], [], []
     order = '>' if is_bigendian else '<'
-    for field in fields:
-        if field.datatype not in POINTFIELD_DTYPES:
+    for name, offset, datatype, count in fields:
+        if datatype not in POINTFIELD_DTYPES:
             raise PointCloudFormatError(
-                f'field {field.name!r} has unknown datatype {field.datatype}')
-        if field.count != 1:
+                f'field {name!r} has unknown datatype {datatype}')
+        if count != 1:
             raise PointCloudFormatError(
-                f'field {field.name!r} has count {field.count}; only count 1 is supported')
-        if field.name in names:
-            raise PointCloudFormatError(f'field {field.name!r} appears twice')
-        dtype = POINTFIELD_DTYPES[field.datatype].newbyteorder(order)
-        if field.offset + dtype.itemsize > point_step:
+                f'field {name!r} has count {count}; only count 1 is supported')
+        if name in names:
+            raise PointCloudFormatError(f'field {name!r} appears twice')
+        dtype = POINTFIELD_DTYPES[datatype].newbyteorder(order)
+        if offset + dtype.itemsize > point_step:
             raise PointCloudFormatError(
-                f'field {field.name!r} (offset {field.offset}, {dtype.itemsize} bytes) overruns '
+                f'field {name!r} (offset {offset}, {dtype.itemsize} bytes) overruns '
                 f'point_step {point_step}')
-        names.append(field.name)
+        names.append(name)
         formats.append(dtype)
-        offsets.append(field.offset)
+        offsets.append(offset)
     spans = sorted((offset, offset + dtype.itemsize, name)
                    for offset, dtype, name in zip(offsets, formats, names))
     for (_, end, first), (start, _, second) in zip(spans, spans[1:]):
@@ -87,6 +95,7 @@ def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     return points.astype(_native(dtype))
 
 
+@lru_cache(maxsize=256)
 def _native(dtype: np.dtype) -> np.dtype:
     """Packed native-order copy of a structured dtype (fields kept, padding dropped)."""
     return np.dtype([(name, dtype.fields[name][0].newbyteorder('=')) for name in dtype.names])
@@ -121,12 +130,19 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
                       is_dense=not any(np.isnan(packed[name]).any()
                                        for name in packed_dtype.names
                                        if packed_dtype.fields[name][0].kind == 'f'))
-    msg.fields = [PointField(name=name, offset=offset, count=1, datatype=datatype)
-                  for name, offset, datatype in fields]
+    msg.fields = list(_point_fields(fields))
     if header is not None:
         msg.header = header
     msg.data = packed.tobytes()
     return msg
+
+
+@lru_cache(maxsize=128)
+def _point_fields(fields: tuple[tuple[str, int, int], ...]) -> tuple[PointField, ...]:
+    """The PointFields of a packed layout, made once per layout (messages share them: they
+    are only read)."""
+    return tuple(PointField(name=name, offset=offset, count=1, datatype=datatype)
+                 for name, offset, datatype in fields)
 
 
 @lru_cache(maxsize=128)

@@ -195,3 +195,41 @@ def test_landmark_behind_robot_is_associated(algorithm):
     observations = Observations([[5.0, -np.pi + 0.001]], [np.diag([0.01, 1e-4])],
                                 'range_bearing')
     assert associate(landmarks, observations, algorithm, pose=pose).assignment[0] == 9
+
+
+@pytest.mark.parametrize('seed', range(12))
+def test_nis_matrix_equals_pairwise_solve_with_and_without_a_floor(seed):
+    """AssociationProblem.nis (the closed 2 x 2 form, shared S per landmark or S per pair built
+    from components) against nu^T solve(S, nu) pair by pair, with the diagonal floor."""
+    from data_association_ros.core.problem import AssociationProblem
+    from problem_factory import innovation
+    rng = np.random.default_rng(300 + seed)
+    landmarks, observations, pose, state_covariance, _ = random_range_bearing_problem(
+        rng, 7, 5, 2, duplicates=1, joint=seed % 2 == 1)
+    if seed % 4 >= 2:   # R per observation
+        scale = rng.uniform(0.5, 2.0, len(observations))[:, None, None]
+        observations = Observations(observations.values, observations.covariances * scale,
+                                    observations.model)
+    floor = [0.0, 0.5][seed % 3 == 0]   # 0.5 binds on most range variances
+    problem = AssociationProblem(landmarks, observations, pose, state_covariance, floor)
+    for i in range(len(observations)):
+        for j in range(len(landmarks)):
+            _, s = pair_nis(landmarks, observations, pose, state_covariance, i, j)
+            s[np.diag_indices(2)] = np.maximum(np.diag(s), floor)
+            nu = innovation(landmarks, observations, pose, i, j)
+            assert problem.nis[i, j] == pytest.approx(float(nu @ np.linalg.solve(s, nu)),
+                                                      rel=1e-9)
+
+
+def test_nis_of_a_singular_or_absurd_s_is_never_gated():
+    from data_association_ros.core.problem import nis_2d, nis_of_innovations
+    nu = np.array([[1.0, 2.0], [0.0, 0.0], [1.0, 0.0], [1e200, 1e200]])
+    s = np.array([[[1.0, 1.0], [1.0, 1.0]],       # det 0
+                  [[1.0, 2.0], [2.0, 1.0]],       # indefinite
+                  [[4.0, 0.0], [0.0, 1.0]],       # fine: 1 / 4
+                  [[1.0, 0.0], [0.0, 1.0]]])      # overflows
+    np.testing.assert_array_equal(nis_of_innovations(nu, s), [np.inf, np.inf, 0.25, np.inf])
+    assert nis_2d(np.array(3.0), np.array(4.0), 1.0, 0.0, 1.0) == 25.0
+    # a 3-D model takes the general path (LAPACK inverse)
+    s3 = np.diag([4.0, 1.0, 2.0])[None]
+    np.testing.assert_allclose(nis_of_innovations(np.array([[2.0, 1.0, 2.0]]), s3), [4.0])

@@ -92,3 +92,22 @@ def test_wrap_angle_range():
     assert np.all(out > -np.pi) and np.all(out <= np.pi)
     np.testing.assert_allclose(np.cos(out), np.cos(angles), atol=1e-12)
     assert out[0] == np.pi and out[1] == np.pi
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(-1e6, 1e6, allow_nan=False), min_size=1, max_size=20))
+def test_wrap_angle_is_in_range_and_the_same_direction(angles):
+    angles = np.array(angles)
+    out = wrap_angle(angles)
+    assert np.all(out > -np.pi) and np.all(out <= np.pi)
+    # the same direction: |wrap(a) - a| is a whole number of turns (to the rounding of a)
+    turns = (angles - out) / (2 * np.pi)
+    np.testing.assert_allclose(turns, np.round(turns), atol=1e-9 * (1 + np.abs(angles).max()))
+    inside = (angles > -np.pi) & (angles <= np.pi)
+    np.testing.assert_array_equal(out[inside], angles[inside])   # untouched, bit for bit
+    for angle, wrapped in zip(angles, out):   # the scalar path agrees with the array path
+        assert float(wrap_angle(angle)) == pytest.approx(wrapped, abs=1e-12 * (1 + abs(angle)))
+
+
+def test_wrap_angle_of_nan_and_inf_is_nan():
+    assert np.isnan(wrap_angle(np.array([np.nan, np.inf, -np.inf]))).all()

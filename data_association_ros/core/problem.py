@@ -66,18 +66,51 @@ def _inverses(matrices: np.ndarray) -> np.ndarray:
 
 
 def prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance: np.ndarray,
-                           pose_landmark: np.ndarray, landmark_covariances: np.ndarray
+                           pose_landmark: Optional[np.ndarray], landmark_covariances: np.ndarray
                            ) -> np.ndarray:
     """H_j P H_j^T (N, m, m) from the Jacobians h_x (N, m, 3) and h_m (N, m, d), the pose
-    covariance (3, 3), Cov(pose, m_j) (N, 3, d) and Cov(m_j) (N, d, d)."""
-    cross = h_x @ pose_landmark @ np.swapaxes(h_m, 1, 2)
-    return (h_x @ pose_covariance @ np.swapaxes(h_x, 1, 2) + cross + np.swapaxes(cross, 1, 2)
-            + h_m @ landmark_covariances @ np.swapaxes(h_m, 1, 2))
+    covariance (3, 3), Cov(pose, m_j) (N, 3, d; None: zero) and Cov(m_j) (N, d, d)."""
+    n, m, _ = h_x.shape
+    h_x_p = (h_x.reshape(n * m, 3) @ pose_covariance).reshape(n, m, 3)
+    out = h_x_p @ np.swapaxes(h_x, 1, 2) + h_m @ landmark_covariances @ np.swapaxes(h_m, 1, 2)
+    if pose_landmark is not None:
+        cross = h_x @ pose_landmark @ np.swapaxes(h_m, 1, 2)
+        out += cross + np.swapaxes(cross, 1, 2)
+    return out
+
+
+def nis_2d(nu_0: np.ndarray, nu_1: np.ndarray, s_00: np.ndarray, s_01: np.ndarray,
+           s_11: np.ndarray) -> np.ndarray:
+    """nu^T S^-1 nu for 2-D innovations (nu_0, nu_1) and S = [[s_00, s_01], [s_01, s_11]], all
+    broadcast together, in closed form (s_11 nu_0^2 - 2 s_01 nu_0 nu_1 + s_00 nu_1^2) / det S;
+    inf where det S <= 0 or the value is not finite (a numerically singular S: never gated).
+    The coefficients are formed on S's own shape (N, when one S serves a column), so the (K, N)
+    part costs eight passes; a batched LAPACK inverse costs about 1 us per 2 x 2 matrix."""
+    with np.errstate(invalid='ignore', over='ignore', divide='ignore'):
+        det = s_00 * s_11 - s_01 * s_01
+        scale = np.where(det > 0, 1.0 / det, np.nan)
+        d2 = np.empty(np.broadcast_shapes(np.shape(nu_0), np.shape(nu_1), np.shape(scale)))
+        term = np.empty_like(d2)
+        np.multiply(nu_0, nu_0, out=d2)
+        d2 *= s_11 * scale
+        np.multiply(nu_0, nu_1, out=term)
+        term *= -2.0 * s_01 * scale
+        d2 += term
+        np.multiply(nu_1, nu_1, out=term)
+        term *= s_00 * scale
+        d2 += term
+        bad = ~(d2 < np.inf) | ~(d2 >= 0)   # NaN, inf, negative
+    if bad.any():
+        d2[bad] = np.inf
+    return d2
 
 
 def nis_of_innovations(nu: np.ndarray, s: np.ndarray) -> np.ndarray:
     """nu^T S^-1 nu for innovations nu (..., m) and covariances S broadcast against them
-    (..., m, m); inf where S is numerically singular (such a pair can never be gated)."""
+    (..., m, m); inf where S is numerically singular (such a pair can never be gated).  m = 2
+    in closed form (nis_2d); nu[..., a] should be contiguous (problem.innovations is)."""
+    if nu.shape[-1] == 2:
+        return nis_2d(nu[..., 0], nu[..., 1], s[..., 0, 0], s[..., 0, 1], s[..., 1, 1])
     with np.errstate(invalid='ignore', over='ignore'):
         d2 = symmetric_quadratic_form(nu, _inverses(s))
     return np.where(np.isfinite(d2) & (d2 >= 0), d2, np.inf)
@@ -227,7 +260,8 @@ class AssociationProblem:
         else:
             p_mm = self.landmarks.covariances
         return prediction_covariances(h_x, h_m, self._pose_covariance(),
-                                      self._pose_landmark_block(index), p_mm)
+                                      None if self.state_covariance is None
+                                      else self._pose_landmark_block(index), p_mm)
 
     def joint_prediction_covariance(self, landmark_indices: np.ndarray) -> np.ndarray:
         """Cov(h_a, h_b) for a, b in `landmark_indices` (L, L, m, m): H_a P H_b^T, as one
@@ -284,6 +318,13 @@ class AssociationProblem:
         shared = self._shared_innovation_covariances
         if shared is not None:
             return nis_of_innovations(nu, shared)
+        if self.observations.dim == 2:   # S_ij by components, never the (K, N, 2, 2) stack
+            p, r = self.prediction_covariances, self.observations.covariances
+            floor = self.min_innovation_variance if self.min_innovation_variance > 0 else -np.inf
+            return nis_2d(nu[..., 0], nu[..., 1],
+                          np.maximum(p[:, 0, 0] + r[:, None, 0, 0], floor),
+                          p[:, 0, 1] + r[:, None, 0, 1],
+                          np.maximum(p[:, 1, 1] + r[:, None, 1, 1], floor))
         with np.errstate(invalid='ignore', over='ignore'):
             inverse = _inverses(self.innovation_covariances)
             d2 = np.einsum('knm,knm->kn', nu, np.einsum('knab,knb->kna', inverse, nu))

@@ -6,20 +6,24 @@ from typing import Optional
 import numpy as np
 
 
+TWO_PI = 2.0 * np.pi
+
+
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Angle(s) wrapped to (-pi, pi] [rad]: remainder(angle + pi, 2 pi) - pi, -pi -> pi.  The
-    remainder is taken only where angle + pi is outside [0, 2 pi) (inside, it is the identity),
-    so arrays of mostly wrapped angles cost a few passes instead of a division each."""
-    shifted = np.add(angle, np.pi)
-    if np.ndim(shifted) == 0:
-        wrapped = np.remainder(shifted, 2.0 * np.pi) - np.pi
-        return np.where(wrapped == -np.pi, np.pi, wrapped)
-    outside = (shifted < 0.0) | (shifted >= 2.0 * np.pi) | np.isnan(shifted)
-    if outside.any():
-        shifted[outside] = np.remainder(shifted[outside], 2.0 * np.pi)
-    shifted -= np.pi
-    shifted[shifted == -np.pi] = np.pi
-    return shifted
+    """Angle(s) wrapped to (-pi, pi] [rad]: a - 2 pi floor((a + pi) / (2 pi)), -pi -> pi.  An
+    angle inside is returned as it is (but within a rounding of pi); arrays take a few passes
+    and no per-element remainder."""
+    angle = np.asarray(angle, dtype=float)
+    with np.errstate(invalid='ignore'):   # inf -> NaN, as remainder gives
+        wrapped = angle - TWO_PI * np.floor((angle + np.pi) * (1.0 / TWO_PI))
+    if wrapped.ndim == 0:
+        wrapped = float(wrapped)
+        return np.float64(wrapped + TWO_PI if wrapped <= -np.pi else
+                          wrapped - TWO_PI if wrapped > np.pi else wrapped)
+    # rounding near the ends (and of a large angle's turns) can leave a value just outside
+    wrapped[wrapped <= -np.pi] += TWO_PI
+    wrapped[wrapped > np.pi] -= TWO_PI
+    return wrapped
 
 
 class MeasurementModel:
@@ -47,10 +51,19 @@ class MeasurementModel:
         raise NotImplementedError
 
     def innovation(self, values: np.ndarray, predictions: np.ndarray) -> np.ndarray:
-        """nu[i, j] = z_i - h_j, angular components wrapped: (K, m), (N, m) -> (K, N, m)."""
-        nu = values[:, None, :] - predictions[None, :, :]
-        for index in self.angular:   # on a contiguous copy: faster than the strided view
-            nu[..., index] = wrap_angle(values[:, None, index] - predictions[None, :, index])
+        """nu[i, j] = z_i - h_j, angular components wrapped: (K, m), (N, m) -> (K, N, m) (a view
+        of innovation_components)."""
+        return np.moveaxis(self.innovation_components(values, predictions), 0, -1)
+
+    def innovation_components(self, values: np.ndarray, predictions: np.ndarray) -> np.ndarray:
+        """nu[c, i, j] = z_ic - h_jc, angular components wrapped: (K, m), (N, m) -> (m, K, N),
+        each component contiguous (a (K, N, m) broadcast costs about 10x its m passes)."""
+        m = values.shape[1]
+        nu = np.empty((m, values.shape[0], predictions.shape[0]))
+        for c in range(m):
+            np.subtract(values[:, c, None], predictions[None, :, c], out=nu[c])
+            if c in self.angular:
+                nu[c] = wrap_angle(nu[c])
         return nu
 
 

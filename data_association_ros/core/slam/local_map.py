@@ -36,7 +36,7 @@ import numpy as np
 from ..gating import chi2_threshold
 from ..models import MODELS
 from ..pose_recovery import added_pose_noise
-from ..problem import landmark_blocks, prediction_covariances
+from ..problem import landmark_blocks, nis_2d, prediction_covariances
 from ..spatial_index import spreads
 
 LOCAL_MAP_GATE = chi2_threshold(1.0 - 1e-9, 2)
@@ -118,21 +118,10 @@ def _pairable(model: str, pose: np.ndarray, wide_pose: np.ndarray,
                              axis=-1).transpose(1, 0, 2)
     s = prediction_covariances(h_x, h_m, wide_pose, pose_landmark,
                                landmark_blocks(state_covariance, columns, 2))
-    nu = measurement.innovation(values, predicted)
-    nis = _nis_2d(nu, s[None] + noise[:, None])
-    inside = (nis <= LOCAL_MAP_GATE) | (np.linalg.norm(nu, axis=-1) <= euclidean_gate)
+    nu = measurement.innovation_components(values, predicted)   # (2, K, L)
+    nis = nis_2d(nu[0], nu[1], s[:, 0, 0] + noise[:, None, 0, 0],
+                 s[:, 0, 1] + noise[:, None, 0, 1], s[:, 1, 1] + noise[:, None, 1, 1])
+    inside = (nis <= LOCAL_MAP_GATE) | (np.hypot(nu[0], nu[1]) <= euclidean_gate)
     # a non-finite block: the association refuses this covariance and falls back to the
     # marginals, which may pair the landmark - keep it
     return inside.any(axis=0) | ~np.isfinite(s).all(axis=(1, 2))
-
-
-def _nis_2d(nu: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """nu^T S^-1 nu for 2-D innovations nu (..., 2) and S (..., 2, 2) in closed form,
-    (S_11 nu_0^2 - 2 S_01 nu_0 nu_1 + S_00 nu_1^2) / det S; inf where det S <= 0 or the value
-    is not finite (a numerically singular S: never gated).  The batched LAPACK inverse costs
-    about 1 us per 2x2 matrix, this a few ns."""
-    a, b, c = s[..., 0, 0], s[..., 0, 1], s[..., 1, 1]
-    with np.errstate(invalid='ignore', over='ignore', divide='ignore'):
-        det = a * c - b * b
-        d2 = (c * nu[..., 0] ** 2 - 2.0 * b * nu[..., 0] * nu[..., 1] + a * nu[..., 1] ** 2) / det
-    return np.where((det > 0) & np.isfinite(d2) & (d2 >= 0), d2, np.inf)
