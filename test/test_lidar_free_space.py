@@ -168,3 +168,30 @@ def test_hidden_is_told_by_the_beams_towards_the_rectangle():
     assert not hidden(face)  # its own returns do not hide it
     track.filter.x[:3] = [-11.0, 0.0, 0.0]
     assert hidden(wall)
+
+
+def test_on_face_by_hand():
+    from data_association_ros.core.lidar.object_tracker import on_face
+    end, outward = np.zeros(2), np.array([1.0, 0.0])
+    assert on_face(end, outward, 0.3, np.array([0.3, 0.05]), 0.1)       # the next return
+    assert not on_face(end, outward, 0.3, np.array([0.3, 0.2]), 0.1)    # off the line
+    assert not on_face(end, outward, 0.3, np.array([1.0, 0.0]), 0.1)    # a gap: 3.3 spacings
+    assert not on_face(end, outward, 0.3, np.array([0.1, 0.0]), 0.1)    # not beyond the end
+    assert not on_face(end, outward, 0.3, np.array([np.nan, np.nan]), 0.1)
+
+
+def test_a_grazing_face_going_on_past_a_cluster_end_is_no_edge():
+    """A side face seen at 12 deg (returns 0.3 m apart, each 0.3 m farther: flagged as an edge
+    by range alone) whose next return was left out of every cluster: no EdgePoint there (the
+    correction would pull the rectangle's corner onto the middle of the face, car_moving seed
+    200); the same end with the next return behind a corner stays an edge."""
+    tracker = LidarObjectTracker()
+    face = np.array([12.0, 2.0]) + np.outer(np.arange(6) * 0.3, [np.cos(0.2), np.sin(0.2)])
+    ends, edges = np.array([[1, 5]]), np.array([[False, True]])
+    labels = np.array([-1, 0, 0, 0, 0, 0, -1])
+    points = np.vstack([face[:1] - [0.3, 0.06], face[1:], face[5] + (face[5] - face[4])])
+    # the last row: the next return on the same face, 0.3 m on: no edge
+    assert tracker._edges(points, labels, [0], ends, edges) == []
+    points[-1] = face[5] + (face[5] - face[4]) + [0.0, 1.0]   # behind the corner: an edge
+    found = tracker._edges(points, labels, [0], ends, edges)
+    assert len(found) == 1 and np.allclose(found[0].point, face[5])

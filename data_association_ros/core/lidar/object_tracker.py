@@ -87,6 +87,11 @@ object turns makes a beam along a face look as if it passed through the rectangl
 HIDDEN_SHARE = 0.9
 """A coasting track is hidden (kept up to max_hidden_age) when this share of the beams towards
 its predicted rectangle return before reaching it."""
+FACE_SIGMAS, FACE_SLOPE, FACE_STEPS = 2.0, np.tan(np.deg2rad(20.0)), (0.5, 2.0)
+"""A cluster end is no edge when the next beam's return lies within FACE_SIGMAS point_sigma of
+the face's line beyond the end and within 20 deg of its direction, FACE_STEPS times the last
+spacing along it (on_face; the angle keeps a small object's corner, whose returns are a few cm
+apart, from passing for its face going on)."""
 SLOW_VOTE = -1.0
 """heading_turn's vote for "too slow to tell" (not a turn it can return)."""
 SETTLE_TIME = 0.5
@@ -336,9 +341,10 @@ class LidarObjectTracker:
 
     def _edges(self, points: np.ndarray, labels: np.ndarray, clusters: list,
                ends: np.ndarray, edges: np.ndarray) -> list[EdgePoint]:
-        """EdgePoint of each cluster end flagged as an object edge, unless the next beam out
-        belongs to another of the object's clusters (a face seen at a grazing angle, its
-        returns farther apart than cluster_gap and edge_jump, goes on there)."""
+        """EdgePoint of each cluster end flagged as an object edge, unless the face goes on
+        there: the next beam out belongs to another of the object's clusters, or its return
+        continues the face (on_face: a face seen at a grazing angle has its returns farther
+        apart than cluster_gap and farther in range than edge_jump)."""
         result = []
         for cluster in clusters:
             first, last = ends[cluster]
@@ -347,13 +353,18 @@ class LidarObjectTracker:
             for end, inner, outer, flagged in (
                     (first, first + 1, first - 1, edges[cluster, 0]),
                     (last, last - 1, last + 1, edges[cluster, 1])):
-                if flagged and 0 <= outer < len(labels) and labels[outer] in clusters:
+                if not flagged:
                     continue
-                if flagged:
-                    step = points[end] - points[inner]
-                    spacing = float(np.hypot(*step))
-                    if spacing > 0:
-                        result.append(EdgePoint(points[end], step / spacing, spacing))
+                inside = 0 <= outer < len(labels)
+                if inside and labels[outer] in clusters:
+                    continue
+                step = points[end] - points[inner]
+                spacing = float(np.hypot(*step))
+                if spacing <= 0 or inside and on_face(points[end], step / spacing, spacing,
+                                                      points[outer],
+                                                      FACE_SIGMAS * self.config.point_sigma):
+                    continue
+                result.append(EdgePoint(points[end], step / spacing, spacing))
         return result
 
     def _update(self, track: ObjectTrack, points: np.ndarray, labels: np.ndarray,
@@ -513,6 +524,21 @@ class LidarObjectTracker:
         track.length, track.width, track.anchor = length, width, anchor
         track.updated, track.last = time, track.filter.x[:3].copy()
         track.votes = 0
+
+
+def on_face(end: np.ndarray, outward: np.ndarray, spacing: float, point: np.ndarray,
+            tolerance: float) -> bool:
+    """True when `point` (2,) continues a face that reaches `end` (2,) going `outward` (unit,
+    2): within `tolerance` [m] of its line and FACE_SLOPE of its direction, FACE_STEPS x
+    `spacing` (the face's last return spacing [m]) beyond the end along it (the next return on
+    the same straight face; a corner or a gap leaves it off the line or too far)."""
+    offset = np.asarray(point, dtype=float) - end
+    if not np.all(np.isfinite(offset)):
+        return False
+    along = float(offset @ outward)
+    across = abs(float(offset[0] * outward[1] - offset[1] * outward[0]))
+    return across <= min(tolerance, FACE_SLOPE * along) and \
+        FACE_STEPS[0] * spacing <= along <= FACE_STEPS[1] * spacing
 
 
 def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:
