@@ -332,3 +332,24 @@ def test_bag_scores_offline():
         assert s.position_rmse < limits[0] and s.heading_rmse_deg < limits[1] \
             and s.velocity_rmse < limits[2], (object_id, s)
         assert s.id_switches == 0 and s.coverage > 0.95, (object_id, s)
+
+
+def test_a_point_past_a_corner_paired_up_the_end_face_reads_as_the_side_it_lies_on():
+    """The car's side goes on 0.1 m past the rectangle's corner, and the one-to-one matching
+    has paired that return with a boundary point 0.12 m up the end face (the corner was taken):
+    with reach 0 the pair reads as the end face being 0.1 m farther (an end nobody saw) and
+    pulls the rectangle along; with a reach of 1.5 boundary spacings it is a pair on the side
+    and says nothing along it (car_moving seed 205 object 5: 9.5 m/s for a 5 m/s car)."""
+    box = corners(np.array([0.0, 5.0]), 0.0, 4.0, 2.0)        # side y = 4 faces the sensor
+    sensor = np.array([6.0, 0.0])
+    side = np.column_stack([np.linspace(-1.0, 1.9, 12), np.full(12, 4.0)])
+    scan = np.vstack([side, [[2.1, 4.0]]])                    # 0.1 m past the corner x = 2
+    boundary = np.vstack([side, [[2.0, 4.12]]])               # ... paired up the end face x = 2
+    pairs = np.column_stack([np.arange(13), np.arange(13)])
+    args = (scan, boundary, pairs, box, [], np.array([0.0, 5.0]), np.diag([1.0, 1.0, 0.1]),
+            0.02)
+    pulled = point_to_line_correction(*args, sensor=sensor)
+    assert pulled.translation[0] > 0.05                       # the end face "moved" 0.1 m
+    held = point_to_line_correction(*args, sensor=sensor, reach=0.15)
+    assert abs(held.translation[0]) < 1e-4 and abs(held.translation[1]) < 1e-4
+    assert held.covariance[0, 0] > 0.5                        # along the side: unobserved

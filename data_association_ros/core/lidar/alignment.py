@@ -82,12 +82,15 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
                              centre: np.ndarray, pose_covariance: np.ndarray, sigma: float,
                              gate: float = 13.8, prior_sigmas=(1.0, 1.0, 0.5),
                              iterations: int = 3,
-                             sensor: np.ndarray = np.zeros(2)) -> Correction:
+                             sensor: np.ndarray = np.zeros(2), reach: float = 1e-6) -> Correction:
     """Gauss-Newton over (t_x, t_y, yaw) from 0 (see the module docstring).
 
     scan (K, 2), boundary (N, 2) points and pairs (n, 2) as from fine.match; corner_points
     (4, 2) of the predicted rectangle (shape.corners).  Pair residual r = n_f . (X^-1(s) - b),
-    variance sigma^2, f the visible face through b nearest to s.  Edge residual (2,)
+    variance sigma^2, f the visible face passing within `reach` [m] of b whose line is nearest
+    to s (a reach of a few boundary spacings: the one-to-one matching pairs a point just beyond
+    a corner with a boundary point a little way along the other face, which would read as that
+    face - an end the scan has not seen - being there).  Edge residual (2,)
     X^-1(e + h/2 d) - k for the visible-face corner k nearest to it, covariance
     sigma^2 I + h^2 / 12 d d^T (+ the corner's from pose_covariance when gating: edges whose
     squared Mahalanobis distance exceeds `gate` are ignored).  A weak prior N(0,
@@ -103,11 +106,13 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
     # faces through b (distance to the segment ~0), the one whose line is nearest to s
     along = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], direction)
     across = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], normal)
-    on_face = visible & (np.abs(across) < 1e-6) & (along > -1e-6) & (along < length + 1e-6)
+    beyond = along - np.clip(along, 0.0, length)   # past the segment's ends, along its line
+    on_face = visible & (np.hypot(across, beyond) <= max(reach, 1e-6))
     distance = np.abs(np.einsum('nfd,fd->nf', s[:, None, :] - start[None], normal))
     face = np.argmin(np.where(on_face, distance, np.inf), axis=1)
     keep = on_face[np.arange(len(s)), face]
     s, b, n = s[keep], b[keep], normal[face[keep]]
+    b = b - n * across[keep, face[keep]][:, None]   # onto the face's line (within reach of it)
     corner_ids = np.flatnonzero(visible | np.roll(visible, 1))  # corners of visible faces
     edge_rows = []
     for edge in edges:

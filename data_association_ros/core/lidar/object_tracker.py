@@ -92,6 +92,11 @@ FACE_SIGMAS, FACE_SLOPE, FACE_STEPS = 2.0, np.tan(np.deg2rad(20.0)), (0.5, 2.0)
 the face's line beyond the end and within 20 deg of its direction, FACE_STEPS times the last
 spacing along it (on_face; the angle keeps a small object's corner, whose returns are a few cm
 apart, from passing for its face going on)."""
+CORNER_REACH = 1.5
+"""point_to_line_correction's reach in boundary spacings with a one-to-one fine matching
+(jcbb_points): a pair's face may be any visible face within it of the boundary point, the one
+whose line is nearest to the scan point (nearest pairs each scan point with its own nearest
+boundary point: no reach)."""
 SLOW_VOTE = -1.0
 """heading_turn's vote for "too slow to tell" (not a turn it can return)."""
 SETTLE_TIME = 0.5
@@ -445,7 +450,8 @@ class LidarObjectTracker:
             return point_to_line_correction(
                 sample, boundary, pairs, track.corners(),
                 self._edges(points, labels, clusters, ends, edges),
-                x[:2], track.filter.p[:3, :3], config.point_sigma, sensor=self.sensor)
+                x[:2], track.filter.p[:3, :3], config.point_sigma, sensor=self.sensor,
+                reach=CORNER_REACH * config.boundary_spacing if config.fine != 'nearest' else 0.0)
         return rigid_correction(sample, boundary, pairs, x[:2], config.transform == 'ransac',
                                 config.ransac_threshold)
 
