@@ -250,7 +250,11 @@ def main(argv: Optional[list[str]] = None) -> int:
     if result.restarted_after is not None:
         print(f'node killed and restarted after message {result.restarted_after}')
         # the restarted node must answer again: nothing unanswered after the first gap
-        return 0 if len(gaps) <= 1 and (not gaps or gaps[0][1] < result.sent - 1) else 1
+        if len(gaps) <= 1 and (not gaps or gaps[0][1] < result.sent - 1):
+            return 0
+        print(f'da_bag_replay: the restarted node did not answer again; node log (both '
+              f'nodes):\n{result.node_log[-3000:]}', file=sys.stderr)
+        return 1
     if result.answered < result.sent:
         print(f'da_bag_replay: {result.sent - result.answered} answers missing; node log:\n'
               f'{result.node_log[-2000:]}', file=sys.stderr)
