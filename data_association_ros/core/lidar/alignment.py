@@ -103,7 +103,7 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
     normal = np.column_stack([direction[:, 1], -direction[:, 0]])
     visible = visible_faces(corner_points, sensor)
     s, b = scan[pairs[:, 0]], boundary[pairs[:, 1]]
-    # faces through b (distance to the segment ~0), the one whose line is nearest to s
+    # faces within reach of b (its distance to the segment), the one whose line is nearest to s
     along = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], direction)
     across = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], normal)
     beyond = along - np.clip(along, 0.0, length)   # past the segment's ends, along its line
