@@ -130,19 +130,12 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
                       is_dense=not any(np.isnan(packed[name]).any()
                                        for name in packed_dtype.names
                                        if packed_dtype.fields[name][0].kind == 'f'))
-    msg.fields = list(_point_fields(fields))
+    msg.fields = [PointField(name=name, offset=offset, count=1, datatype=datatype)
+                  for name, offset, datatype in fields]
     if header is not None:
         msg.header = header
     msg.data = packed.tobytes()
     return msg
-
-
-@lru_cache(maxsize=128)
-def _point_fields(fields: tuple[tuple[str, int, int], ...]) -> tuple[PointField, ...]:
-    """The PointFields of a packed layout, made once per layout (messages share them: they
-    are only read)."""
-    return tuple(PointField(name=name, offset=offset, count=1, datatype=datatype)
-                 for name, offset, datatype in fields)
 
 
 @lru_cache(maxsize=128)

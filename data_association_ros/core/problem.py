@@ -105,6 +105,15 @@ def nis_2d(nu_0: np.ndarray, nu_1: np.ndarray, s_00: np.ndarray, s_01: np.ndarra
     return d2
 
 
+def nis_2d_of_sum(nu_0: np.ndarray, nu_1: np.ndarray, p: np.ndarray, r: np.ndarray,
+                  floor: float = -np.inf) -> np.ndarray:
+    """nis_2d (K, N) of 2-D innovations nu_0, nu_1 (K, N) with S_ij = p_j + r_i, p (N, 2, 2),
+    r (K, 2, 2), its diagonal raised to `floor`: S by components, never the (K, N, 2, 2)
+    stack."""
+    return nis_2d(nu_0, nu_1, np.maximum(p[:, 0, 0] + r[:, None, 0, 0], floor),
+                  p[:, 0, 1] + r[:, None, 0, 1], np.maximum(p[:, 1, 1] + r[:, None, 1, 1], floor))
+
+
 def nis_of_innovations(nu: np.ndarray, s: np.ndarray) -> np.ndarray:
     """nu^T S^-1 nu for innovations nu (..., m) and covariances S broadcast against them
     (..., m, m); inf where S is numerically singular (such a pair can never be gated).  m = 2
@@ -318,13 +327,11 @@ class AssociationProblem:
         shared = self._shared_innovation_covariances
         if shared is not None:
             return nis_of_innovations(nu, shared)
-        if self.observations.dim == 2:   # S_ij by components, never the (K, N, 2, 2) stack
-            p, r = self.prediction_covariances, self.observations.covariances
-            floor = self.min_innovation_variance if self.min_innovation_variance > 0 else -np.inf
-            return nis_2d(nu[..., 0], nu[..., 1],
-                          np.maximum(p[:, 0, 0] + r[:, None, 0, 0], floor),
-                          p[:, 0, 1] + r[:, None, 0, 1],
-                          np.maximum(p[:, 1, 1] + r[:, None, 1, 1], floor))
+        if self.observations.dim == 2:
+            return nis_2d_of_sum(nu[..., 0], nu[..., 1], self.prediction_covariances,
+                                 self.observations.covariances,
+                                 self.min_innovation_variance
+                                 if self.min_innovation_variance > 0 else -np.inf)
         with np.errstate(invalid='ignore', over='ignore'):
             inverse = _inverses(self.innovation_covariances)
             d2 = np.einsum('knm,knm->kn', nu, np.einsum('knab,knb->kna', inverse, nu))

@@ -135,10 +135,10 @@ def usage_text(node: str, doc: str, parameters: Sequence[NodeParameter], table: 
 
 
 INTERRUPTED: list = []
-"""The SIGINTs received (_interrupt_once)."""
+"""The SIGINTs received (_record_interrupts)."""
 
 
-def _interrupt_once() -> None:
+def _record_interrupts() -> None:
     """SIGINT only records itself: rclpy's own handler (installed by rclpy.init, which calls
     this one after it) shuts the context down, and the spin ends with ExternalShutdownException.
     Raising KeyboardInterrupt here (as before) let it land anywhere, also inside rclpy's Task
@@ -165,7 +165,7 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
     if usage and ('--help' in own or '-h' in own):
         print(usage)
         return
-    _interrupt_once()
+    _record_interrupts()
     rclpy.init(args=args)
     if INTERRUPTED:  # Ctrl-C before rclpy's handler was there
         rclpy.shutdown()

@@ -36,7 +36,7 @@ import numpy as np
 from ..gating import chi2_threshold
 from ..models import MODELS
 from ..pose_recovery import added_pose_noise
-from ..problem import landmark_blocks, nis_2d, prediction_covariances
+from ..problem import landmark_blocks, nis_2d_of_sum, prediction_covariances
 from ..spatial_index import spreads
 
 LOCAL_MAP_GATE = chi2_threshold(1.0 - 1e-9, 2)
@@ -119,8 +119,7 @@ def _pairable(model: str, pose: np.ndarray, wide_pose: np.ndarray,
     s = prediction_covariances(h_x, h_m, wide_pose, pose_landmark,
                                landmark_blocks(state_covariance, columns, 2))
     nu = measurement.innovation_components(values, predicted)   # (2, K, L)
-    nis = nis_2d(nu[0], nu[1], s[:, 0, 0] + noise[:, None, 0, 0],
-                 s[:, 0, 1] + noise[:, None, 0, 1], s[:, 1, 1] + noise[:, None, 1, 1])
+    nis = nis_2d_of_sum(nu[0], nu[1], s, noise)
     inside = (nis <= LOCAL_MAP_GATE) | (np.hypot(nu[0], nu[1]) <= euclidean_gate)
     # a non-finite block: the association refuses this covariance and falls back to the
     # marginals, which may pair the landmark - keep it
