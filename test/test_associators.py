@@ -1,11 +1,14 @@
 """Single-scan associators against direct computations, brute force and the seeds' examples."""
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from scipy.stats import chi2, multivariate_normal
 
 from data_association_ros import (NEW, UNASSOCIATED, Landmarks, Observations, RobotPose, associate,
                                   available_algorithms)
 from data_association_ros.core.associators.iou import iou_matrix
+from data_association_ros.core.gating import chi2_threshold
 from problem_factory import one_to_one_subsets, pair_nis, random_range_bearing_problem
 
 
@@ -233,3 +236,15 @@ def test_nis_of_a_singular_or_absurd_s_is_never_gated():
     # a 3-D model takes the general path (LAPACK inverse)
     s3 = np.diag([4.0, 1.0, 2.0])[None]
     np.testing.assert_allclose(nis_of_innovations(np.array([[2.0, 1.0, 2.0]]), s3), [4.0])
+
+
+@given(st.floats(1e-6, 1.0 - 1e-9), st.integers(1, 400))
+def test_chi2_threshold_is_scipy_stats_chi2_ppf(probability, dof):
+    # gating computes it without importing scipy.stats (a second of every node's start-up)
+    assert chi2_threshold(probability, dof) == pytest.approx(chi2.ppf(probability, dof),
+                                                             rel=1e-12, abs=1e-300)
+
+
+def test_chi2_threshold_of_two_dof_hand_computed():
+    # chi2 with 2 dof is exponential with mean 2: quantile -2 ln(1 - p)
+    assert chi2_threshold(0.99, 2) == pytest.approx(-2.0 * np.log(0.01), rel=1e-13)

@@ -8,14 +8,16 @@ from functools import lru_cache
 from typing import Optional
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.special import gammaincinv
 
 
 @lru_cache(maxsize=4096)
 def chi2_threshold(probability: float, dof: int) -> float:
     """chi2 quantile: the NIS below which a correct pairing of `dof` dimensions falls with
-    probability `probability` (0.99, dof 2 -> 9.21)."""
-    return float(chi2.ppf(probability, dof))
+    probability `probability` (0.99, dof 2 -> 9.21): 2 P^-1(dof / 2, probability) with P the
+    regularised lower incomplete gamma function, scipy.stats.chi2.ppf's own formula (without
+    importing scipy.stats, about 1 s of a node's start-up)."""
+    return float(2.0 * gammaincinv(0.5 * dof, probability))
 
 
 @dataclass(frozen=True)
