@@ -91,37 +91,37 @@ def fuzz(examples):
                                            HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
-@fuzz(1250)
+@fuzz(700)
 @given(msg=st.one_of(raw_clouds(), plausible_clouds()))
 def test_observation_clouds(stream, msg):
     stream.feed(stream.pipeline.answer, msg)
 
 
-@fuzz(1250)
+@fuzz(700)
 @given(msg=st.one_of(raw_clouds(), plausible_clouds()))
 def test_landmark_clouds(stream, msg):
     stream.feed(stream.pipeline.on_landmarks, msg)
 
 
-@fuzz(750)
+@fuzz(400)
 @given(msg=pose_arrays())
 def test_pose_arrays(stream, msg):
     stream.feed(stream.pipeline.on_pose_array, msg)
 
 
-@fuzz(750)
+@fuzz(400)
 @given(msg=odometries())
 def test_odometry(stream, msg):
     stream.feed(stream.pipeline.on_robot_pose, msg)
 
 
-@fuzz(750)
+@fuzz(400)
 @given(msg=covariance_clouds())
 def test_state_covariances(stream, msg):
     stream.feed(stream.pipeline.on_state_covariance, msg)
 
 
-@fuzz(750)
+@fuzz(400)
 @given(msg=st.one_of(raw_clouds(), plausible_clouds()))
 def test_range_bearing_observations_with_a_pose(stream, msg):
     """The same clouds as range-bearing scans (a robot pose present)."""

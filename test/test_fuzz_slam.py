@@ -70,7 +70,7 @@ def new_landmark_clouds(draw):
 MESSAGES = st.one_of(odometries(), plausible_clouds(), raw_clouds(), new_landmark_clouds())
 
 
-@settings(max_examples=600 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=300 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
 @given(st.sampled_from(['node', 'ground_truth']),
        st.lists(st.tuples(st.sampled_from(HANDLERS), MESSAGES, st.integers(0, 14)),
                 min_size=1, max_size=4))
