@@ -39,6 +39,54 @@ def test_consecutive_clustering_splits_on_gaps_and_invalid_returns():
     assert np.all(cluster_consecutive(np.full((3, 2), np.nan), 0.5) == -1)
 
 
+
+def test_a_car_side_seen_at_a_grazing_angle_is_one_cluster_with_its_rear():
+    """car_static seed 200 object 1 by hand: a 3.84 m x 1.67 m car 18 m out at bearing 18 deg,
+    heading 10 deg, 0.25 deg beams.  Its side's returns are 0.6-0.8 m apart (farther than the
+    0.3 m gap), so without face_tolerance only the rear face is a cluster and the side is
+    dropped; with it the whole visible outline is one cluster, up to the side's last return."""
+    box = rectangle_segments(np.array([17.26, 5.75]), np.deg2rad(10.0), length=3.84, width=1.67)
+    angles = np.deg2rad(np.arange(0.0, 40.0, 0.25))
+    ranges, hit = raycast(np.zeros(2), angles, box, 60.0)
+    with np.errstate(invalid='ignore'):   # no return: inf x 0
+        points = np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+    on_car = np.flatnonzero(hit >= 0)
+    gaps = np.hypot(*np.diff(points[on_car], axis=0).T)
+    assert gaps.max() > 0.6 and (gaps > 0.3).sum() >= 4   # the side: beyond the gap
+    plain = cluster_consecutive(points, gap=0.3, min_points=3)
+    joined = cluster_consecutive(points, gap=0.3, min_points=3, face_tolerance=0.1)
+    assert (plain[on_car] == -1).sum() >= 4               # the side's returns dropped
+    assert np.all(joined[on_car] == joined[on_car[0]]) and joined[on_car[0]] >= 0
+    assert np.all(joined[hit < 0] == -1)
+
+
+def test_face_tolerance_joins_only_a_straight_face_at_an_even_spacing():
+    line = np.outer(np.arange(8.0), [1.0, 0.0])   # one wall, 1 m between returns
+    # returns that only line up with each other (a wall at a grazing angle) are no cluster
+    assert np.all(cluster_consecutive(line, gap=0.3, min_points=3, face_tolerance=0.05) == -1)
+    # ... but continue one: a dense face, then the same face ever sparser, either way round
+    face = np.vstack([np.outer(np.arange(4) * 0.1, [1.0, 0.0]),
+                      np.outer(0.3 + np.cumsum(0.5 * 1.1 ** np.arange(5)), [1.0, 0.0])])
+    assert np.all(cluster_consecutive(face, gap=0.3, min_points=3, face_tolerance=0.05) == 0)
+    assert np.all(cluster_consecutive(face[::-1], gap=0.3, min_points=3,
+                                      face_tolerance=0.05) == 0)
+    doorway = np.vstack([line[:4] * 0.1, [[2.0, 0.0]], [[2.1, 0.0]], [[2.2, 0.0]]])
+    # 0.1 m spacing, a 1.7 m doorway, 0.1 m again: the gap is no spacing of the face
+    np.testing.assert_array_equal(
+        cluster_consecutive(doorway, gap=0.3, face_tolerance=0.05), [0, 0, 0, 0, 1, 1, 1])
+    zigzag = np.column_stack([np.arange(6.0), [0.0, 0.4, 0.0, 0.4, 0.0, 0.4]])
+    assert np.all(cluster_consecutive(zigzag, gap=0.3, face_tolerance=0.05) ==
+                  np.arange(6))                    # no three on one line
+    corner = np.vstack([np.column_stack([np.zeros(4), 0.3 - 0.1 * np.arange(4)]),
+                        [[0.7, 0.0]], [[np.nan, np.nan]]])
+    # a face along y ending in a corner, one return 0.7 m along x, then nothing: one return
+    # past a corner cannot show a face
+    np.testing.assert_array_equal(
+        cluster_consecutive(corner, gap=0.3, face_tolerance=0.05), [0, 0, 0, 0, 1, -1])
+    np.testing.assert_array_equal(cluster_consecutive(line, gap=0.3, min_points=1),
+                                  np.arange(8))   # without a tolerance: as before
+
+
 def scan_points(scan):
     """LaserScan -> (K, 2) points in the laser frame (inf ranges stay inf)."""
     ranges = np.asarray(scan.ranges, dtype=float)
@@ -174,6 +222,23 @@ def test_fit_rectangle_completes_a_face_on_the_hidden_side():
     occluded_last = np.array([False, True])  # scan order: the last point is the upper one
     centre, *_ = fit_rectangle(points, 4.5, 1.8, occluded=occluded_last)
     np.testing.assert_allclose(centre, [12.25, -2.9 + 0.9], atol=1e-9)  # towards the occluder
+
+
+
+def test_fit_completes_only_the_face_an_occluded_end_lies_on():
+    """lidar_two_cars' car 2 at its start, by hand: a 4.0 m x 1.8 m car at (13, -2) seen from
+    the origin, its rear face x = 11 partly hidden by a car in front (visible y -1.1 .. -1.6;
+    the cluster's first return, the occluded end) and its side y = -1.1 seen up to 3.8 m back
+    from the rear.  The occluded end lies on the rear face: the width is completed towards it,
+    the 4.5 m prior length away from the sensor, not towards the hidden end of the rear face
+    (which had put the centre 0.75 m behind the rear face: 12.5 instead of 13.25)."""
+    rear = np.column_stack([np.full(6, 11.0), np.linspace(-1.6, -1.1, 6)])
+    side = np.column_stack([np.linspace(11.4, 14.8, 6), np.full(6, -1.1)])
+    points = np.vstack([rear, side])
+    centre, yaw, length, width = fit_rectangle(points, 4.5, 1.8,
+                                               occluded=np.array([True, False]))
+    assert abs(yaw) < np.deg2rad(1.0) and np.allclose((length, width), (4.5, 1.8), atol=0.01)
+    np.testing.assert_allclose(centre, [11.0 + 2.25, -1.1 - 0.9], atol=0.02)
 
 
 def test_contain_ignores_noise_moves_and_grows():

@@ -171,7 +171,7 @@ def test_hidden_is_told_by_the_beams_towards_the_rectangle():
 
 
 def test_on_face_by_hand():
-    from data_association_ros.core.lidar.object_tracker import on_face
+    from data_association_ros.core.lidar.clustering import on_face
     end, outward = np.zeros(2), np.array([1.0, 0.0])
     assert on_face(end, outward, 0.3, np.array([0.3, 0.05]), 0.1)       # the next return
     assert not on_face(end, outward, 0.3, np.array([0.3, 0.2]), 0.1)    # off the line
@@ -184,8 +184,9 @@ def test_a_grazing_face_going_on_past_a_cluster_end_is_no_edge():
     """A side face seen at 12 deg (returns 0.3 m apart, each 0.3 m farther: flagged as an edge
     by range alone) whose next return was left out of every cluster: no EdgePoint there (the
     correction would pull the rectangle's corner onto the middle of the face, car_moving seed
-    200); the same end with the next return behind a corner stays an edge."""
-    tracker = LidarObjectTracker()
+    200); the same end with the next return behind a corner stays an edge.  (cluster_gap
+    0.31 m: the face's own returns are within it, as cluster_consecutive leaves them.)"""
+    tracker = LidarObjectTracker(TrackerConfig().with_values(cluster_gap=0.31))
     face = np.array([12.0, 2.0]) + np.outer(np.arange(6) * 0.3, [np.cos(0.2), np.sin(0.2)])
     ends, edges = np.array([[1, 5]]), np.array([[False, True]])
     labels = np.array([-1, 0, 0, 0, 0, 0, -1])
@@ -195,3 +196,20 @@ def test_a_grazing_face_going_on_past_a_cluster_end_is_no_edge():
     points[-1] = face[5] + (face[5] - face[4]) + [0.0, 1.0]   # behind the corner: an edge
     found = tracker._edges(points, labels, [0], ends, edges)
     assert len(found) == 1 and np.allclose(found[0].point, face[5])
+
+
+def test_an_end_reached_across_a_face_gap_is_no_edge():
+    """The far end of a side seen at a grazing angle (returns 0.6 m apart, kept in the cluster
+    by the face rule) lies up to one spacing short of the corner, and an edge there pulled the
+    prior-long rectangle back (lidar_two_cars car 2: 0.25 -> 0.6 m): no EdgePoint when the
+    end's last step is longer than cluster_gap; the same side seen 0.1 m apart gives one."""
+    tracker = LidarObjectTracker()
+    for step, edges_expected in ((0.6, 0), (0.1, 1)):
+        side = np.column_stack([10.0 + step * np.arange(5), np.full(5, -1.1)])
+        points = np.vstack([side, [[np.nan, np.nan]]])
+        labels = np.array([0, 0, 0, 0, 0, -1])
+        ends, edges = np.array([[0, 4]]), np.array([[False, True]])
+        found = tracker._edges(points, labels, [0], ends, edges)
+        assert len(found) == edges_expected
+        if found:
+            assert np.allclose(found[0].point, side[-1])

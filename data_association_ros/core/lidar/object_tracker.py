@@ -2,8 +2,9 @@
 (JCBB) -> rigid correction -> fictitious measurement -> Kalman update.
 
 Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
-1. cluster consecutive points (clustering.cluster_consecutive) and flag each cluster end that is
-   an object edge or occluded (clustering.cluster_ends);
+1. cluster consecutive points (clustering.cluster_consecutive; a face seen at a grazing angle,
+   its returns farther apart than cluster_gap, stays one cluster) and flag each cluster end that
+   is an object edge or occluded (clustering.cluster_ends);
 2. predict every track to t, its velocity turning with its yaw rate (measurement.
    turning_prediction, process_noise);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
@@ -60,7 +61,7 @@ from ..models.base import wrap_angle
 from ..tracking.kalman import KalmanFilter
 from ..types import Landmarks, Observations
 from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigid_correction)
-from .clustering import cluster_consecutive, cluster_ends
+from .clustering import cluster_consecutive, cluster_ends, on_face
 from .fine import boundary_covariance, match
 from .free_space import beams, blocked_share, carve, near
 from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
@@ -87,11 +88,10 @@ object turns makes a beam along a face look as if it passed through the rectangl
 HIDDEN_SHARE = 0.9
 """A coasting track is hidden (kept up to max_hidden_age) when this share of the beams towards
 its predicted rectangle return before reaching it."""
-FACE_SIGMAS, FACE_SLOPE, FACE_STEPS = 2.0, np.tan(np.deg2rad(20.0)), (0.5, 2.0)
-"""A cluster end is no edge when the next beam's return lies within FACE_SIGMAS point_sigma of
-the face's line beyond the end and within 20 deg of its direction, FACE_STEPS times the last
-spacing along it (on_face; the angle keeps a small object's corner, whose returns are a few cm
-apart, from passing for its face going on)."""
+FACE_SIGMAS = 2.0
+"""A cluster end is no edge when the next beam's return continues the face within FACE_SIGMAS
+point_sigma of its line (clustering.on_face); such returns are one cluster (cluster_consecutive's
+face_tolerance)."""
 CORNER_REACH = 1.5
 """point_to_line_correction's reach in boundary spacings with a one-to-one fine matching
 (jcbb_points): a pair's face may be any visible face within it of the boundary point, the one
@@ -200,7 +200,8 @@ class LidarObjectTracker:
                 raise InvalidInputError(f'directions: shape {directions.shape} is not the '
                                         f'points\' {points.shape}')
         self._rays = beams(points, self.sensor, directions, self._margin)
-        labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points)
+        labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
+                                     FACE_SIGMAS * config.point_sigma)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
         self._occluded = occluded
         count = len(ends)
@@ -349,7 +350,10 @@ class LidarObjectTracker:
         """EdgePoint of each cluster end flagged as an object edge, unless the face goes on
         there: the next beam out belongs to another of the object's clusters, or its return
         continues the face (on_face: a face seen at a grazing angle has its returns farther
-        apart than cluster_gap and farther in range than edge_jump)."""
+        apart than cluster_gap and farther in range than edge_jump); and unless the end's last
+        step is longer than cluster_gap (a grazing face kept in the cluster by the face rule:
+        its last return lies up to a step short of the corner, and an edge there would pull a
+        rectangle of the prior length back instead of telling the length)."""
         result = []
         for cluster in clusters:
             first, last = ends[cluster]
@@ -365,9 +369,10 @@ class LidarObjectTracker:
                     continue
                 step = points[end] - points[inner]
                 spacing = float(np.hypot(*step))
-                if spacing <= 0 or inside and on_face(points[end], step / spacing, spacing,
-                                                      points[outer],
-                                                      FACE_SIGMAS * self.config.point_sigma):
+                if spacing <= 0 or spacing > self.config.cluster_gap:
+                    continue
+                if inside and on_face(points[end], step / spacing, spacing, points[outer],
+                                      FACE_SIGMAS * self.config.point_sigma):
                     continue
                 result.append(EdgePoint(points[end], step / spacing, spacing))
         return result
@@ -530,21 +535,6 @@ class LidarObjectTracker:
         track.length, track.width, track.anchor = length, width, anchor
         track.updated, track.last = time, track.filter.x[:3].copy()
         track.votes = 0
-
-
-def on_face(end: np.ndarray, outward: np.ndarray, spacing: float, point: np.ndarray,
-            tolerance: float) -> bool:
-    """True when `point` (2,) continues a face that reaches `end` (2,) going `outward` (unit,
-    2): within `tolerance` [m] of its line and FACE_SLOPE of its direction, FACE_STEPS x
-    `spacing` (the face's last return spacing [m]) beyond the end along it (the next return on
-    the same straight face; a corner or a gap leaves it off the line or too far)."""
-    offset = np.asarray(point, dtype=float) - end
-    if not np.all(np.isfinite(offset)):
-        return False
-    along = float(offset @ outward)
-    across = abs(float(offset[0] * outward[1] - offset[1] * outward[0]))
-    return across <= min(tolerance, FACE_SLOPE * along) and \
-        FACE_STEPS[0] * spacing <= along <= FACE_STEPS[1] * spacing
 
 
 def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:

@@ -56,7 +56,9 @@ def _int(name, default, description, low, high):
 
 
 PARAMETERS = (
-    _float('cluster_gap', 0.3, 'consecutive scan points closer than this [m] form one cluster'),
+    _float('cluster_gap', 0.3, 'consecutive scan points closer than this [m] form one cluster '
+           '(farther ones too when a third continues their straight line at an even spacing: '
+           'a face seen at a grazing angle)'),
     _int('min_cluster_points', 3, 'clusters with fewer points are ignored', 1, 100000),
     _float('edge_jump', 0.3, 'a cluster end is an object edge when the next return is missing '
            'or farther by more than this [m]'),

@@ -113,6 +113,11 @@ def fit_rectangle(points: np.ndarray, prior_length: float, prior_width: float,
                   prior_width, sensor, occluded)
 
 
+FACE_POINTS = 3
+"""fit_at: the face a hidden cluster end lies on runs along the axis of its offset from the
+return this many places in (a corner nearer than that leaves the axis to the longer leg)."""
+
+
 def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: float,
            sensor: np.ndarray = np.zeros(2), occluded: Optional[np.ndarray] = None,
            directed: bool = False) -> tuple[np.ndarray, float, float, float]:
@@ -126,14 +131,17 @@ def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: flo
     if away < 0 and not directed:  # heading away from the sensor
         yaw, u, body = yaw + np.pi, -u, -body
     sensor_body = np.asarray(sensor, float) @ u
-    hidden_end = None
+    hidden_end, hidden_axis = None, None
     if occluded is not None and np.count_nonzero(occluded) == 1:
         hidden_end = body[0] if occluded[0] else body[-1]
+        inner = body[min(FACE_POINTS, len(body) - 1)] if occluded[0] else \
+            body[max(len(body) - 1 - FACE_POINTS, 0)]
+        hidden_axis = int(np.argmax(np.abs(hidden_end - inner)))  # the face it ends
     box = []
     for k, extent in ((0, prior_length), (1, prior_width)):
         low, high = body[:, k].min(), body[:, k].max()
         toward = None
-        if hidden_end is not None and high - low > 0.1 and min(
+        if hidden_end is not None and k == hidden_axis and high - low > 0.1 and min(
                 hidden_end[k] - low, high - hidden_end[k]) < 0.1 * (high - low):
             toward = hidden_end[k]
         box.append(extend_away(low, high, extent, sensor_body[k], toward))
