@@ -54,18 +54,17 @@ def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor
     grazing angle) do not become a cluster."""
     segment = np.concatenate([[0], np.cumsum(jumps)])
     anchored = np.bincount(segment) >= anchor
-    joins = np.array([_continues(points, index, t, t + 1, t + 2, tolerance)
-                      or _continues(points, index, t - 1, t, t + 1, tolerance)
-                      for t in range(len(jumps))], dtype=bool) & jumps
-    group = bool(anchored[0]) if len(anchored) else False
-    for t in range(len(jumps)):            # forwards: the group on the left grows
-        if jumps[t]:
-            if joins[t] and group:
-                jumps[t] = False
-            else:
-                group = bool(anchored[segment[t + 1]])
-    group = bool(anchored[-1]) if len(anchored) else False
-    for t in range(len(jumps) - 1, -1, -1):   # backwards: the group on the right grows
+    joins = jumps & (_continues(points, index, 0, tolerance)
+                     | _continues(points, index, -1, tolerance))
+    at = np.flatnonzero(jumps)
+    group = bool(anchored[0])
+    for t in at:                  # forwards: the group on the left grows
+        if joins[t] and group:
+            jumps[t] = False
+        else:
+            group = bool(anchored[segment[t + 1]])
+    group = bool(anchored[-1])
+    for t in at[::-1]:            # backwards: the group on the right grows
         if jumps[t] and not (joins[t] and group):
             group = bool(anchored[segment[t]])
         else:
@@ -73,16 +72,30 @@ def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor
             group = group or bool(anchored[segment[t]])
 
 
-def _continues(points: np.ndarray, index: np.ndarray, a: int, b: int, c: int,
-               tolerance: float) -> bool:
-    """True when the valid returns a, b, c (positions in `points`, (V, 2), of the scan's
-    valid returns, scan indices `index`) are consecutive beams and c continues the face from a
-    through b (on_face)."""
-    if a < 0 or c >= len(points) or index[c] - index[a] != 2:
-        return False
-    step = points[b] - points[a]
-    spacing = float(np.hypot(*step))
-    return spacing > 0 and on_face(points[b], step / spacing, spacing, points[c], tolerance)
+def _continues(points: np.ndarray, index: np.ndarray, shift: int, tolerance: float
+               ) -> np.ndarray:
+    """For each gap t between valid returns t and t + 1 ((V - 1,) bool): the returns a = t +
+    shift, b = a + 1, c = a + 2 (positions in `points` (V, 2), the scan's valid returns, scan
+    indices `index`) are consecutive beams and c continues the face from a through b (on_face,
+    vectorised)."""
+    count = len(points) - 1
+    out = np.zeros(max(count, 0), dtype=bool)
+    a = np.arange(count) + shift
+    ok = (a >= 0) & (a + 2 < len(points))
+    a = a[ok]
+    ok_rows = np.flatnonzero(ok)
+    consecutive = index[a + 2] - index[a] == 2
+    a, rows = a[consecutive], ok_rows[consecutive]
+    step = points[a + 1] - points[a]
+    spacing = np.hypot(step[:, 0], step[:, 1])
+    with np.errstate(invalid='ignore', divide='ignore'):
+        outward = step / spacing[:, None]
+        offset = points[a + 2] - points[a + 1]
+        along = np.einsum('nd,nd->n', offset, outward)
+        across = np.abs(offset[:, 0] * outward[:, 1] - offset[:, 1] * outward[:, 0])
+        out[rows] = (spacing > 0) & (across <= np.minimum(tolerance, FACE_SLOPE * along)) & \
+            (FACE_STEPS[0] * spacing <= along) & (along <= FACE_STEPS[1] * spacing)
+    return out
 
 
 def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
