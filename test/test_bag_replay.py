@@ -15,7 +15,7 @@ from data_association_ros.pipelines.association import stamp_ns
 from msg_adapters import cloud_to_array
 
 BAGS = Path(__file__).resolve().parents[1] / 'bags'
-RATE = 4.0
+RATE = 8.0
 
 # (bag, algorithm) -> (minimum pairing precision, minimum recall, reason). Measured values
 # (offline = live) are in the README table; each threshold sits below them by the margin the
