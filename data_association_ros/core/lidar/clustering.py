@@ -76,8 +76,8 @@ def _continues(points: np.ndarray, index: np.ndarray, shift: int, tolerance: flo
                ) -> np.ndarray:
     """For each gap t between valid returns t and t + 1 ((V - 1,) bool): the returns a = t +
     shift, b = a + 1, c = a + 2 (positions in `points` (V, 2), the scan's valid returns, scan
-    indices `index`) are consecutive beams and c continues the face from a through b (on_face,
-    vectorised)."""
+    indices `index`) are consecutive beams and c continues the face from a through b
+    (on_face)."""
     count = len(points) - 1
     out = np.zeros(max(count, 0), dtype=bool)
     a = np.arange(count) + shift
@@ -89,12 +89,8 @@ def _continues(points: np.ndarray, index: np.ndarray, shift: int, tolerance: flo
     step = points[a + 1] - points[a]
     spacing = np.hypot(step[:, 0], step[:, 1])
     with np.errstate(invalid='ignore', divide='ignore'):
-        outward = step / spacing[:, None]
-        offset = points[a + 2] - points[a + 1]
-        along = np.einsum('nd,nd->n', offset, outward)
-        across = np.abs(offset[:, 0] * outward[:, 1] - offset[:, 1] * outward[:, 0])
-        out[rows] = (spacing > 0) & (across <= np.minimum(tolerance, FACE_SLOPE * along)) & \
-            (FACE_STEPS[0] * spacing <= along) & (along <= FACE_STEPS[1] * spacing)
+        out[rows] = (spacing > 0) & on_face(points[a + 1], step / spacing[:, None], spacing,
+                                            points[a + 2], tolerance)
     return out
 
 
@@ -130,16 +126,16 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
         ~in_scan | (~missing & (step < -jump))
 
 
-def on_face(end: np.ndarray, outward: np.ndarray, spacing: float, point: np.ndarray,
-            tolerance: float) -> bool:
+def on_face(end: np.ndarray, outward: np.ndarray, spacing: float | np.ndarray, point: np.ndarray,
+            tolerance: float) -> bool | np.ndarray:
     """True when `point` (2,) continues a face that reaches `end` (2,) going `outward` (unit,
     2): within `tolerance` [m] of its line and FACE_SLOPE of its direction, FACE_STEPS x
     `spacing` (the face's last return spacing [m]) beyond the end along it (the next return on
-    the same straight face; a corner or a gap leaves it off the line or too far)."""
+    the same straight face; a corner or a gap leaves it off the line or too far).  Arrays of
+    them (..., 2) and spacings (...) broadcast: a bool array; NaN anywhere: False."""
     offset = np.asarray(point, dtype=float) - end
-    if not np.all(np.isfinite(offset)):
-        return False
-    along = float(offset @ outward)
-    across = abs(float(offset[0] * outward[1] - offset[1] * outward[0]))
-    return across <= min(tolerance, FACE_SLOPE * along) and \
-        FACE_STEPS[0] * spacing <= along <= FACE_STEPS[1] * spacing
+    with np.errstate(invalid='ignore'):
+        along = np.sum(offset * outward, axis=-1)
+        across = np.abs(offset[..., 0] * outward[..., 1] - offset[..., 1] * outward[..., 0])
+        return (across <= np.minimum(tolerance, FACE_SLOPE * along)) & \
+            (FACE_STEPS[0] * spacing <= along) & (along <= FACE_STEPS[1] * spacing)

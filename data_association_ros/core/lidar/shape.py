@@ -141,7 +141,7 @@ def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: flo
     for k, extent in ((0, prior_length), (1, prior_width)):
         low, high = body[:, k].min(), body[:, k].max()
         toward = None
-        if hidden_end is not None and k == hidden_axis and high - low > 0.1 and min(
+        if k == hidden_axis and high - low > 0.1 and min(
                 hidden_end[k] - low, high - hidden_end[k]) < 0.1 * (high - low):
             toward = hidden_end[k]
         box.append(extend_away(low, high, extent, sensor_body[k], toward))
