@@ -54,8 +54,9 @@ def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor
     grazing angle) do not become a cluster."""
     segment = np.concatenate([[0], np.cumsum(jumps)])
     anchored = np.bincount(segment) >= anchor
-    joins = jumps & (_continues(points, index, 0, tolerance)
-                     | _continues(points, index, -1, tolerance))
+    ahead = _continues(points, index, tolerance)   # t + 2 continues t -> t + 1
+    behind = np.concatenate([[False], ahead[:-1]])  # t + 1 continues t - 1 -> t
+    joins = jumps & (ahead | behind)
     at = np.flatnonzero(jumps)
     group = bool(anchored[0])
     for t in at:                  # forwards: the group on the left grows
@@ -72,25 +73,17 @@ def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor
             group = group or bool(anchored[segment[t]])
 
 
-def _continues(points: np.ndarray, index: np.ndarray, shift: int, tolerance: float
-               ) -> np.ndarray:
-    """For each gap t between valid returns t and t + 1 ((V - 1,) bool): the returns a = t +
-    shift, b = a + 1, c = a + 2 (positions in `points` (V, 2), the scan's valid returns, scan
-    indices `index`) are consecutive beams and c continues the face from a through b
-    (on_face)."""
-    count = len(points) - 1
-    out = np.zeros(max(count, 0), dtype=bool)
-    a = np.arange(count) + shift
-    ok = (a >= 0) & (a + 2 < len(points))
-    a = a[ok]
-    ok_rows = np.flatnonzero(ok)
-    consecutive = index[a + 2] - index[a] == 2
-    a, rows = a[consecutive], ok_rows[consecutive]
+def _continues(points: np.ndarray, index: np.ndarray, tolerance: float) -> np.ndarray:
+    """For each gap t between valid returns t and t + 1 ((V - 1,) bool): the returns t, t + 1,
+    t + 2 (positions in `points` (V, 2), the scan's valid returns, scan indices `index`) are
+    consecutive beams and t + 2 continues the face from t through t + 1 (on_face)."""
+    out = np.zeros(max(len(points) - 1, 0), dtype=bool)
+    a = np.flatnonzero(index[2:] - index[:-2] == 2)
     step = points[a + 1] - points[a]
     spacing = np.hypot(step[:, 0], step[:, 1])
     with np.errstate(invalid='ignore', divide='ignore'):
-        out[rows] = (spacing > 0) & on_face(points[a + 1], step / spacing[:, None], spacing,
-                                            points[a + 2], tolerance)
+        out[a] = (spacing > 0) & on_face(points[a + 1], step / spacing[:, None], spacing,
+                                         points[a + 2], tolerance)
     return out
 
 
