@@ -1,6 +1,6 @@
 """The benchmark script runs (quick mode) and its comparisons hold: fast jcbb gives the reference
-JCBB's answers, the compiled search the pure-Python one's, the time budget cuts a long search
-short.  Timings are not asserted."""
+JCBB's answers, the compiled kernels those of numpy and the pure-Python search, the time budget
+cuts a long search short.  Timings are not asserted."""
 import re
 import sys
 from pathlib import Path
@@ -29,7 +29,7 @@ def test_quick_benchmarks_agree_with_the_reference(tmp_path):
         assert same == total == row[1]
     from data_association_ros.core.associators import jcbb_compiled
     if jcbb_compiled.available():
-        compiled = rows_of(text, 'jcbb: compiled search (numba) versus the pure-Python search')
+        compiled = rows_of(text, 'jcbb: compiled kernels (numba) versus numpy and the pure-Python')
         assert [r[0] for r in compiled] == ['clutter_range_bearing', 'dense random',
                                             'node_latency K=50 N=200']
         for row in compiled:

@@ -13,14 +13,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from data_association_ros import Landmarks, Observations, associate
-from data_association_ros.core.associators import jcbb_compiled, jcbb_kernels
-from data_association_ros.core.associators.joint_compatibility import compiled
+from data_association_ros.core import jit
+from data_association_ros.core.associators import jcbb_compiled
+from data_association_ros.core.jit import compiled
 from problem_factory import random_range_bearing_problem
 
 ROOT = Path(__file__).resolve().parents[1]
-needs_numba = pytest.mark.skipif(not jcbb_compiled.available(),
-                                 reason=f'compiled search unavailable: '
-                                        f'{jcbb_compiled.unavailable_reason()}')
+needs_numba = pytest.mark.skipif(jit.load_numba() is None,
+                                 reason=f'numba not loaded: {jit.import_error()}')
 MODES = [('jcbb', {}), ('jcbb', {'classic_pruning': True, 'nis_tie_break': False}),
          ('jcbb', {'classic_pruning': True}), ('jcbb', {'nis_tie_break': False}),
          ('jcbb', {'max_nodes': 5}), ('jcbb', {'joint_gate_probability': 0.9}),
@@ -130,41 +130,44 @@ sys.path.insert(0, 'test')
 import numpy as np
 {block}
 from data_association_ros import associate
-from data_association_ros.core.associators import jcbb_compiled, jcbb_kernels
+from data_association_ros.core import problem_kernels
+from data_association_ros.core.associators import jcbb_compiled
 from problem_factory import random_range_bearing_problem
 lm, obs, pose, p, _ = random_range_bearing_problem(np.random.default_rng(11), 8, 6, 2, 2, True)
 r = associate(lm, obs, 'jcbb', pose=pose, state_covariance=p)
-print(jcbb_compiled.available(), list(r.assignment), r.extras['search_nodes'])
+print(jcbb_compiled.available(), problem_kernels.KERNELS.available(), list(r.assignment),
+      r.extras['search_nodes'], np.round(r.nis, 9).tolist())
 """
 
 
 @needs_numba
 def test_package_works_without_numba_with_the_same_answer():
-    """numba missing (import blocked) or switched off: the pure-Python search answers, the
-    same as the compiled one."""
+    """numba missing (import blocked) or switched off: the pure-Python search and the numpy
+    NIS answer, the same as the compiled ones (assignment, nodes, NIS to 9 decimals)."""
     with_numba = run_python(JCBB_SCRIPT.format(block=''))
     blocked = run_python(JCBB_SCRIPT.format(block="sys.modules['numba'] = None"))
     switched_off = run_python(JCBB_SCRIPT.format(block=''), DATA_ASSOCIATION_ROS_NO_JIT='1')
     for process in (with_numba, blocked, switched_off):
         assert process.returncode == 0, process.stderr
-    assert with_numba.stdout.startswith('True ')
-    assert blocked.stdout.startswith('False ') and switched_off.stdout.startswith('False ')
-    answer = with_numba.stdout.split(' ', 1)[1]
-    assert blocked.stdout.split(' ', 1)[1] == answer == switched_off.stdout.split(' ', 1)[1]
+    assert with_numba.stdout.startswith('True True ')
+    for process in (blocked, switched_off):
+        assert process.stdout.startswith('False False ')
+    answer = with_numba.stdout.split(' ', 2)[2]
+    assert blocked.stdout.split(' ', 2)[2] == answer == switched_off.stdout.split(' ', 2)[2]
 
 
 def test_cache_dir_falls_back_to_a_user_directory(monkeypatch, tmp_path):
     """A read-only package directory: NUMBA_CACHE_DIR becomes a directory under the user's
     cache ($XDG_CACHE_HOME); an explicit NUMBA_CACHE_DIR is kept."""
-    package = Path(jcbb_kernels.__file__).resolve().parent / '__pycache__'
+    package = Path(jit.__file__).resolve().parent / '__pycache__'
     monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
     monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path))
-    real = jcbb_kernels._writable
-    monkeypatch.setattr(jcbb_kernels, '_writable',
+    real = jit._writable
+    monkeypatch.setattr(jit, '_writable',
                         lambda directory: directory != package and real(directory))
-    jcbb_kernels._choose_cache_dir()
+    jit._choose_cache_dir()
     assert os.environ['NUMBA_CACHE_DIR'] == str(tmp_path / 'data_association_ros' / 'numba')
     assert (tmp_path / 'data_association_ros' / 'numba').is_dir()
     monkeypatch.setenv('NUMBA_CACHE_DIR', '/somewhere/else')
-    jcbb_kernels._choose_cache_dir()
+    jit._choose_cache_dir()
     assert os.environ['NUMBA_CACHE_DIR'] == '/somewhere/else'

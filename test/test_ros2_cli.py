@@ -95,6 +95,16 @@ def tools(tmp_path_factory) -> Tools:
     assert build.returncode == 0, build.stdout[-3000:]
     install = shlex.quote(str(ws / 'install' / 'setup.bash'))
     setup.write_text(setup.read_text() + f'source {install}\n')
+    # the installed copy compiles its own numba kernels at its first use (numba caches them by
+    # source path; 25-30 s here, as a user's first start after a build), later starts load them
+    warm = Tools(setup, env).run(
+        'python -c "import sys; sys.path.pop(0); from data_association_ros.core import jit; '
+        'from data_association_ros.core.associators import jcbb_compiled; '
+        'print(jit.__file__, jit.problem_kernels() is not None and jcbb_compiled.available())"',
+        timeout=300)
+    assert warm.returncode == 0, warm.stdout[-2000:]
+    assert warm.stdout.startswith(str(ws / 'install')) and warm.stdout.split()[-1] == 'True', \
+        warm.stdout[-2000:]
     yield Tools(setup, env)
     Tools(setup, env).run('ros2 daemon stop', timeout=30)
 

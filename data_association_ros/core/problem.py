@@ -12,6 +12,7 @@ from typing import Optional
 
 import numpy as np
 
+from . import jit
 from .errors import InvalidInputError
 from .models import MODELS, MeasurementModel
 from .types import Landmarks, Observations, RobotPose
@@ -166,6 +167,11 @@ class AssociationProblem:
         if self.state_covariance is None or not len(self.landmarks):
             return
         n, d = len(self.landmarks), self.landmarks.dim
+        kernels = jit.problem_kernels()
+        if kernels is not None:
+            if kernels.run_first_indefinite_block(self.state_covariance, n, d) >= 0:
+                raise InvalidInputError('state_covariance: not positive semi-definite')
+            return
         rows = np.concatenate([np.broadcast_to(np.arange(3), (n, 3)),
                                3 + d * np.arange(n)[:, None] + np.arange(d)], axis=1)
         blocks = self.state_covariance[rows[:, :, None], rows[:, None, :]]
@@ -222,6 +228,26 @@ class AssociationProblem:
         """nu_ij (K, N, m)."""
         return self.model.innovation(self.observations.values, self.predictions)
 
+    def innovations_of(self, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """nu of the pairs (rows[e], columns[e]) (E, m): innovations[rows, columns], without the
+        (K, N, m) array when it has not been computed."""
+        if 'innovations' in self.__dict__:
+            return self.innovations[rows, columns]
+        return self.model.pair_innovations(self.observations.values[rows],
+                                           self.predictions[columns])
+
+    def pair_terms(self, rows: np.ndarray, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(nu (E, m), S (E, m, m)) of the pairs (rows[e], columns[e]): innovations and
+        innovation_covariances at those pairs, without the (K, N) arrays."""
+        kernels = jit.problem_kernels()
+        if kernels is not None:
+            return kernels.run_pair_terms(self.observations.values, self.predictions,
+                                          self.model.angular, self.prediction_covariances,
+                                          self.observations.covariances,
+                                          self.min_innovation_variance, rows, columns)
+        s = self.prediction_covariances[columns] + self.observations.covariances[rows]
+        return self.innovations_of(rows, columns), self._floored(s)
+
     @property
     def pose_covariance(self) -> np.ndarray:
         """Covariance of the pose (3, 3): the joint covariance's block, else the pose's (zeros
@@ -261,6 +287,11 @@ class AssociationProblem:
         n = len(self.landmarks)
         if n == 0:
             return np.zeros((0,) + (self.observations.dim,) * 2)
+        kernels = jit.problem_kernels()
+        if kernels is not None:
+            return kernels.run_prediction_covariances(h_x, h_m, self._pose_covariance(),
+                                                      self.landmarks.covariances,
+                                                      self.state_covariance)
         index = np.arange(n)
         if self.state_covariance is not None:
             d = self.landmarks.dim
@@ -323,6 +354,12 @@ class AssociationProblem:
         k, n = self.sizes
         if k == 0 or n == 0:
             return np.zeros((k, n))
+        kernels = jit.problem_kernels() if self.observations.dim == 2 else None
+        if kernels is not None:
+            r = self.observations.covariances
+            return kernels.run_nis_2d(self.observations.values, self.predictions,
+                                      self.model.angular, self.prediction_covariances, r,
+                                      bool((r == r[0]).all()), self.min_innovation_variance)
         nu = self.innovations
         shared = self._shared_innovation_covariances
         if shared is not None:

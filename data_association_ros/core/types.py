@@ -10,8 +10,9 @@ from typing import Any, Optional
 
 import numpy as np
 
+from . import jit
 from .errors import InvalidInputError
-from .validation import as_float_array, check_shape, check_spd
+from .validation import as_float64, as_float_array, check_shape, check_spd
 
 NEW = -1
 """Assignment value: outside every gate, start a new landmark from this observation."""
@@ -42,6 +43,11 @@ def _empty_as_2d(value, columns: int):
 def _covariance_stack(value, field_name: str, count: int, dim: int) -> Optional[np.ndarray]:
     if value is None:
         return None
+    kernels = jit.problem_kernels() if dim == 2 else None
+    if kernels is not None:   # one compiled pass; the checks below say what is wrong
+        covariances = as_float64(value, field_name)
+        if covariances.shape == (count, 2, 2) and kernels.run_are_spd_2x2(covariances):
+            return covariances
     covariances = as_float_array(value, field_name, 3)
     check_shape(covariances, field_name, (count, dim, dim))
     check_spd(covariances, field_name)

@@ -5,15 +5,21 @@ import weakref
 
 import numpy as np
 
+from . import jit
 from .errors import InvalidInputError
+
+
+def as_float64(value, field: str) -> np.ndarray:
+    """A float64 copy of `value` (C order)."""
+    try:
+        return np.array(value, dtype=np.float64, order='C')
+    except (TypeError, ValueError) as error:
+        raise InvalidInputError(f'{field}: not numeric ({error})') from None
 
 
 def as_float_array(value, field: str, ndim: int) -> np.ndarray:
     """`value` as a float64 array of `ndim` dimensions with only finite entries."""
-    try:
-        array = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise InvalidInputError(f'{field}: not numeric ({error})') from None
+    array = as_float64(value, field)
     if array.ndim != ndim:
         raise InvalidInputError(f'{field}: expected {ndim} dimensions, got shape {array.shape}')
     check_finite(array, field)
@@ -75,6 +81,12 @@ def check_covariance_matrix(value, field: str) -> np.ndarray:
     is never factorised whole).  A matrix this returned before passes at once."""
     if is_checked_covariance(value):
         return value
+    kernels = jit.problem_kernels()
+    if kernels is not None:   # one compiled pass; the checks below say what is wrong
+        matrix = as_float64(value, field)
+        if matrix.ndim == 2 and matrix.shape[0] == matrix.shape[1] and \
+                kernels.run_is_covariance_matrix(matrix):
+            return _checked(matrix)
     matrix = as_float_array(value, field, 2)
     check_shape(matrix, field, (matrix.shape[0], matrix.shape[0]))
     scale = 1.0 + np.abs(matrix).max(initial=0.0)
@@ -84,6 +96,11 @@ def check_covariance_matrix(value, field: str) -> np.ndarray:
     if np.any(diagonal < 0):
         index = int(np.flatnonzero(diagonal < 0)[0])
         raise InvalidInputError(f'{field}[{index}, {index}]: negative variance {diagonal[index]}')
+    return _checked(matrix)
+
+
+def _checked(matrix: np.ndarray) -> np.ndarray:
+    """`matrix`, made read-only and remembered as checked."""
     matrix.flags.writeable = False
     _CHECKED[id(matrix)] = matrix
     return matrix

@@ -26,6 +26,7 @@ from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import diagnostics_message
 
+from ..core import problem_kernels
 from ..core.associators import jcbb_compiled
 from ..pipelines.association import AssociationPipeline
 from ..pipelines.parameters import NODE_PARAMETERS, check_combination
@@ -46,8 +47,9 @@ class AssociationNode(ParameterizedNode):
         # JIT, thresholds, first calls: done before any topic exists, so that no scan waits
         self.start_up_seconds = warm_up(config)
         if not self.start_up_seconds['compiled']:
-            self.get_logger().info('JCBB search not compiled (same answers, slower): '
-                                   f'{jcbb_compiled.unavailable_reason()}')
+            self.get_logger().info('kernels not compiled (same answers, slower): '
+                                   f'{problem_kernels.KERNELS.unavailable_reason() or "-"}; '
+                                   f'{jcbb_compiled.unavailable_reason() or "-"}')
 
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
             ReliabilityPolicy.BEST_EFFORT if config['input_qos'] == 'sensor_data'

@@ -184,9 +184,12 @@ class AssociationPipeline:
         the scan they precede, a large prior map after the first scans): no map received yet;
         state covariances arrive but not yet the one of its map; or the robot pose it needs
         (robot-frame models): poses arrive, but none within pose_tolerance of its stamp and
-        none newer yet."""
+        none newer yet; multi_hypothesis: the same for the odometry it needs (not for the robot
+        pose, only its optional prior)."""
         if not len(self.landmark_history) or self._covariance_pending(msg):
             return True
+        if self.config['algorithm'] == MULTI_HYPOTHESIS:
+            return self._stamp_pending(msg, self.odometry_history.newest_stamp())
         newest = self.pose_history.newest_stamp()
         if newest is None or self.config['measurement_model'] in ('point_map', 'box'):
             return False
@@ -200,7 +203,17 @@ class AssociationPipeline:
                     return False    # a map-frame model needs no pose
         except (AttributeError, TypeError, ValueError, InvalidInputError):
             return False
-        return newest < stamp - int(self.config['pose_tolerance'] * NS_PER_S)
+        return self._stamp_pending(msg, newest)
+
+    def _stamp_pending(self, msg, newest: Optional[int]) -> bool:
+        """True when inputs stamped up to `newest` arrive (not None) but none within
+        pose_tolerance of msg's stamp yet."""
+        try:
+            stamp = stamp_ns(msg.header)
+        except (AttributeError, TypeError, ValueError):
+            return False
+        return newest is not None and newest < stamp - int(self.config['pose_tolerance'] *
+                                                            NS_PER_S)
 
     def _map_for(self, stamp: int, config: dict[str, Any]
                  ) -> tuple[Optional[StampedLandmarks], str]:

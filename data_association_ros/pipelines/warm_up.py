@@ -1,7 +1,7 @@
 """Start-up work done before a node reports ready, so that its first scan costs what later ones do.
 
-* the compiled JCBB search is compiled, or loaded from numba's on-disk cache
-  (core/associators/jcbb_compiled.py);
+* the compiled kernels are compiled, or loaded from numba's on-disk cache: the problem's
+  arithmetic (core/problem_kernels.py) and the JCBB search (core/associators/jcbb_compiled.py);
 * the chi-square thresholds of the configured gate probabilities are computed for
   1..WARM_DOF degrees of freedom (scipy's chi2.ppf costs about 0.3 ms a call; JCBB needs m l
   of them for l pairs, cached once computed);
@@ -19,6 +19,7 @@ from std_msgs.msg import Header
 
 from msg_adapters import array_to_cloud
 
+from ..core import jit
 from ..core.associators import REGISTRY, jcbb_compiled
 from ..core.gating import chi2_threshold
 from .association import AssociationPipeline
@@ -56,10 +57,10 @@ def _synthetic_messages(observed: int = 64, count: int = 256):
 
 def warm_up(config: dict[str, Any]) -> dict[str, float]:
     """Do the start-up work of the module docstring for a node `config`; returns the seconds
-    spent per step and 'compiled' (1.0 when the compiled JCBB search is in use, else 0.0)."""
+    spent per step and 'compiled' (1.0 when the compiled kernels are in use, else 0.0)."""
     spent: dict[str, float] = {}
     started = time.perf_counter()
-    spent['compiled'] = float(jcbb_compiled.warm_up())
+    spent['compiled'] = float(jit.problem_kernels() is not None and jcbb_compiled.warm_up())
     spent['compile_s'] = time.perf_counter() - started
     started = time.perf_counter()
     for probability in {config['gate_probability'], config['joint_gate_probability']}:

@@ -16,12 +16,15 @@ import time
 
 import numpy as np
 
+from .. import jit
 from ..gating import chi2_threshold, nis_gate
 from ..parameters import (GATE_PROBABILITY, JOINT_GATE_PROBABILITY, MIN_INNOVATION_VARIANCE,
                           ParameterSpec)
+from . import jcbb_compiled
 from .base import NO_LANDMARK, Associator, result
-from .joint_compatibility import (MAX_NODES, TIME_BUDGET_MS, JointCompatibilitySearch,
-                                  joint_compatibility_search, prepare_search)
+from .joint_compatibility import (MAX_NODES, TIME_BUDGET_MS, CandidateLists,
+                                  JointCompatibilitySearch, joint_compatibility_search,
+                                  prepare_search, search_order)
 
 CLASSIC_PRUNING = ParameterSpec(
     'classic_pruning', False, 'also prune every node failing its own joint test (faster, may '
@@ -33,15 +36,20 @@ NIS_TIE_BREAK = ParameterSpec(
 
 
 def individually_compatible(problem, gate_probability: float):
-    """(gate mask (K, N), candidate columns per observation sorted by NIS, search order: the
-    observations with candidates, fewest candidates first)."""
+    """(gate mask (K, N), CandidateLists: each observation's gated columns sorted by NIS (ties
+    by column), search order: the observations with candidates, fewest candidates first)."""
     nis = problem.nis
-    gated = nis <= chi2_threshold(gate_probability, problem.observations.dim)
+    threshold = chi2_threshold(gate_probability, problem.observations.dim)
+    if jit.enabled() and jcbb_compiled.available():
+        gated, start, columns = jcbb_compiled.gated_candidates(nis, threshold)
+        return gated, CandidateLists(start, columns), search_order(np.diff(start))
+    gated = nis <= threshold
+    counts = gated.sum(axis=1)
     by_nis = np.argsort(np.where(gated, nis, np.inf), axis=1, kind='stable')
-    candidates = [row[:count] for row, count in zip(by_nis, gated.sum(axis=1))]
-    order = sorted((i for i in range(len(candidates)) if len(candidates[i])),
-                   key=lambda i: (len(candidates[i]), i))
-    return gated, candidates, order
+    start = np.zeros(len(counts) + 1, dtype=np.int64)
+    np.cumsum(counts, out=start[1:])
+    columns = by_nis[np.arange(nis.shape[1]) < counts[:, None]].astype(np.int64)
+    return gated, CandidateLists(start, columns), search_order(counts)
 
 
 def deadline_of(started: float, time_budget_ms: float):

@@ -20,25 +20,28 @@ test_jcbb_compiled.py).  What differs is how it gets there:
   t only, so it is reused while they are unchanged (a version stamp per depth); with X = X_a:
   D = S_ij - X^T X,  w_new = D_L^-1 (nu_ij - X^T w),  d2_new = d2 + |w_new|^2,  new block row
   of L = [X^T, D_L];
-* innovations and S are taken for the candidate pairs only (pair_terms), the joint covariance
-  of the candidate landmarks by a compiled product (_joint_blocks).
+* innovations and S are taken for the candidate pairs only (problem.pair_terms), the joint
+  covariance of the candidate landmarks by a compiled product (_joint_blocks); the candidate
+  lists and the search's index arrays by gated_candidates and search_layout.
 
 The kernels are in jcbb_kernels.py (numba, cached on disk); `warm_up()` compiles (or loads)
-them ahead of the first search; DATA_ASSOCIATION_ROS_NO_JIT=1 switches them off.
+them ahead of the first search; DATA_ASSOCIATION_ROS_NO_JIT=1 switches them off (core/jit.py).
 """
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from functools import lru_cache
 from typing import Optional
 
 import numpy as np
 
 from ..gating import chi2_threshold
-from . import jcbb_kernels
+from ..jit import Kernels
 from .jcbb_kernels import (BEST_COUNT, ISTATE_SIZE, NODES, NPAIRS, PAUSE_EVERY, PAUSED, POS,
                            RUNNING, START, STATUS, NEXT_PAUSE, TRUNCATED, _extend, _joint_blocks,
-                           _push, search)
+                           _push, gated_candidates, search, search_layout)
+from .joint_compatibility import CandidateLists
 
 
 def joint_covariance(problem, local: np.ndarray) -> np.ndarray:
@@ -53,17 +56,6 @@ def joint_covariance(problem, local: np.ndarray) -> np.ndarray:
                   np.ascontiguousarray(problem.state_covariance),
                   np.asarray(local, dtype=np.int64), out)
     return out
-
-
-def pair_terms(problem, rows: np.ndarray, columns: np.ndarray):
-    """(nu (E, m), S (E, m, m)) of the pairs (rows[e], columns[e]): the problem's innovations
-    and innovation covariances H P H^T + R floored at min_innovation_variance, for these pairs
-    only."""
-    s = problem.prediction_covariances[columns] + problem.observations.covariances[rows]
-    if problem.min_innovation_variance > 0:
-        diagonal = np.einsum('...ii->...i', s)
-        diagonal[...] = np.maximum(diagonal, problem.min_innovation_variance)
-    return np.ascontiguousarray(problem.innovations[rows, columns]), s
 
 
 def low_rank_terms(problem, rows: np.ndarray, columns: np.ndarray):
@@ -92,7 +84,7 @@ def low_rank_terms(problem, rows: np.ndarray, columns: np.ndarray):
         b_inverse = np.linalg.inv(b)
     except np.linalg.LinAlgError:
         return None
-    nu = problem.innovations[rows, columns]
+    nu = problem.innovations_of(rows, columns)
     b_nu = np.einsum('eij,ej->ei', b_inverse, nu)
     b_g = b_inverse @ g
     return (np.einsum('ei,ei->e', nu, b_nu), np.einsum('eir,ei->er', g, b_nu),
@@ -113,30 +105,17 @@ class CompiledSearch:
     """JointCompatibilitySearch's interface (start_from, run, best_pairs, best_nis, nodes,
     truncated) on the compiled kernel; same arguments as JointCompatibilitySearch."""
 
-    def __init__(self, problem, gate_probability: float, candidates: list[np.ndarray],
+    def __init__(self, problem, gate_probability: float, candidates: Sequence[np.ndarray],
                  order: list[int], deadline: Optional[float], max_nodes: int,
                  classic: bool = False, nis_ties: bool = True) -> None:
         m = problem.observations.dim
         self.problem = problem
-        k, most = len(order), len(candidates)
+        lists = CandidateLists.of(candidates)
+        k, most = len(order), len(lists)
         self.order = np.asarray(order, dtype=np.int64)
-        sizes = np.fromiter((len(candidates[i]) for i in order), dtype=np.int64, count=k)
-        self.cptr = np.zeros(k + 1, dtype=np.int64)
-        np.cumsum(sizes, out=self.cptr[1:])
-        self.ccols = np.concatenate([candidates[i] for i in order]).astype(np.int64) if k \
-            else np.zeros(0, dtype=np.int64)
-        marked = np.zeros(problem.sizes[1], dtype=np.int64)
-        if most:   # every candidate landmark (start_from's pairs too)
-            marked[np.concatenate(candidates).astype(np.intp)] = 1
-        self.local = np.flatnonzero(marked)
+        (self.cptr, self.ccols, self.rows, self.cloc, self.local, self.position_of, self.lptr,
+         self.lpos) = search_layout(self.order, lists.start, lists.columns, problem.sizes[1])
         count = len(self.local)
-        self.position_of = np.cumsum(marked) - 1    # local index of each marked landmark
-        self.cloc = self.position_of[self.ccols]
-        # positions searching each local landmark (CSR by landmark)
-        positions = np.repeat(np.arange(k, dtype=np.int64), sizes)
-        self.lpos = positions[np.argsort(self.cloc, kind='stable')]
-        self.lptr = np.zeros(count + 1, dtype=np.int64)
-        np.cumsum(np.bincount(self.cloc, minlength=count), out=self.lptr[1:])
         self.thresholds = _thresholds(gate_probability, m, most)
         self.classic, self.nis_ties = bool(classic), bool(nis_ties)
         self.max_nodes, self.deadline = int(max_nodes), deadline
@@ -144,12 +123,11 @@ class CompiledSearch:
         self.pobs, self.pcol, self.ploc, self.bobs, self.bcol = np.zeros((5, depth),
                                                                          dtype=np.int64)
         self.used = np.zeros(count, dtype=np.bool_)
-        self.free = sizes
+        self.free = self.cptr[1:] - self.cptr[:-1]   # free candidates per position
         self.f_nis = np.zeros(k + 1)
         self.f_c, self.f_stage, self.f_l = np.zeros((3, k + 1), dtype=np.int64)
         self.istate = np.zeros(ISTATE_SIZE, dtype=np.int64)
         self.fstate = np.zeros(2)   # best NIS, NIS at the root
-        self.rows = self.order[positions]    # the observation of each candidate entry
         sums = low_rank_terms(problem, self.rows, self.ccols)
         self.low_rank = sums is not None
         if self.low_rank:
@@ -171,7 +149,7 @@ class CompiledSearch:
         count, depth = (0, 0) if empty else (len(self.local), self.depth)
         self.joint = np.zeros((0, 0, m, m)) if empty else joint_covariance(problem, self.local)
         self.nu, self.s = (np.zeros((0, m)), np.zeros((0, m, m))) if empty else \
-            pair_terms(problem, self.rows, self.ccols)
+            problem.pair_terms(self.rows, self.ccols)
         self.lblk = np.empty((depth, depth, m, m))
         self.dinv = np.empty((depth, m, m))
         self.w = np.empty((depth, m))
@@ -208,8 +186,8 @@ class CompiledSearch:
             self.low_rank = False
             self._general()
         if pairs:
-            nu, s = pair_terms(self.problem, np.array([i for i, _ in pairs]),
-                               np.array([j for _, j in pairs]))
+            nu, s = self.problem.pair_terms(np.array([i for i, _ in pairs]),
+                                            np.array([j for _, j in pairs]))
             self.nu, self.s = np.concatenate([self.nu, nu]), np.concatenate([self.s, s])
         m = self.problem.observations.dim
         schur, residual, block, w_new = np.empty((m, m)), np.empty(m), np.empty((m, m)), \
@@ -264,32 +242,31 @@ class CompiledSearch:
             state[NEXT_PAUSE] = state[NODES] + max(PAUSE_EVERY, int(min(fit, 1e15)))
 
 
-_COMPILE_ERROR: Exception | None = None
-_WARM = False
+def _warm_up() -> None:
+    from .joint_compatibility import _warm_up_problem
+    _warm_up_problem()
+    gated, start, columns = gated_candidates(np.array([[3.0, 1.0, 9.0], [1.0, 1.0, 0.5]]), 4.0)
+    if start.tolist() != [0, 2, 5] or columns.tolist() != [1, 0, 2, 0, 1]:
+        raise RuntimeError(f'gated_candidates warm-up: {start} {columns}')
+
+
+KERNELS = Kernels(_warm_up)
+"""The kernels' availability: compiled (or loaded from the on-disk cache) by searching a tiny
+problem the first time it is asked."""
 
 
 def available() -> bool:
     """True when numba imported and the kernels compiled (compiling or loading them now if
     needed: see warm_up)."""
-    return jcbb_kernels.numba is not None and _COMPILE_ERROR is None and warm_up()
+    return KERNELS.available()
 
 
 def warm_up() -> bool:
     """Compile (or load from the on-disk cache) the kernels by searching a tiny problem; False
     (and the pure-Python search is used) when numba is missing or compilation fails."""
-    global _WARM, _COMPILE_ERROR
-    if _WARM or jcbb_kernels.numba is None or _COMPILE_ERROR is not None:
-        return _WARM
-    try:
-        from .joint_compatibility import _warm_up_problem
-        _warm_up_problem()
-        _WARM = True
-    except Exception as error:  # a numba/llvmlite that cannot compile here
-        _COMPILE_ERROR = error
-    return _WARM
+    return KERNELS.available()
 
 
 def unavailable_reason() -> str:
     """Why the compiled search is not used ('' when it is)."""
-    error = _COMPILE_ERROR or jcbb_kernels.IMPORT_ERROR
-    return '' if error is None else f'{type(error).__name__}: {error}'
+    return KERNELS.unavailable_reason()

@@ -1,18 +1,12 @@
 """The numba kernels of the compiled joint compatibility search (jcbb_compiled.py says what they
-compute); numba is optional: without it (or with DATA_ASSOCIATION_ROS_NO_JIT=1) `numba` is None
-and the kernels are plain Python functions, which jcbb_compiled does not use.
-
-JIT compilation is cached on disk (numba cache=True) in NUMBA_CACHE_DIR when set, else beside
-this module when its directory is writable, else in ~/.cache/data_association_ros/numba (or
-$XDG_CACHE_HOME), else in the temporary directory.
+compute); numba is optional (core/jit.py): without it the kernels are plain Python functions,
+which jcbb_compiled does not use.
 """
 from __future__ import annotations
 
-import os
-import tempfile
-from pathlib import Path
-
 import numpy as np
+
+from ..jit import njit as _njit
 
 PAUSE_EVERY = 64
 """Nodes between two clock readings by the caller when a deadline is set (0.05-0.3 ms)."""
@@ -21,48 +15,6 @@ RUNNING, DONE, PAUSED = 0, 1, 2
 # istate slots
 POS, NPAIRS, BEST_COUNT, NODES, TRUNCATED, PENDING, START, STATUS, NEXT_PAUSE, VERSION = range(10)
 ISTATE_SIZE = 10
-
-
-def _writable(directory: Path) -> bool:
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=directory):
-            pass
-        return True
-    except OSError:
-        return False
-
-
-def _choose_cache_dir() -> None:
-    """Set NUMBA_CACHE_DIR to a writable user cache directory when it is unset and this
-    package's directory is read-only (an installed package); numba reads it at import."""
-    if os.environ.get('NUMBA_CACHE_DIR'):
-        return
-    if _writable(Path(__file__).resolve().parent / '__pycache__'):
-        return
-    base = Path(os.environ.get('XDG_CACHE_HOME') or Path.home() / '.cache')
-    for directory in (base / 'data_association_ros' / 'numba',
-                      Path(tempfile.gettempdir()) / f'data_association_ros_numba_{os.getuid()}'):
-        if _writable(directory):
-            os.environ['NUMBA_CACHE_DIR'] = str(directory)
-            return
-
-
-IMPORT_ERROR: Exception | None = None
-if os.environ.get('DATA_ASSOCIATION_ROS_NO_JIT', '') not in ('', '0'):
-    numba = None
-    IMPORT_ERROR = RuntimeError('DATA_ASSOCIATION_ROS_NO_JIT is set')
-else:
-    try:
-        _choose_cache_dir()
-        import numba
-    except Exception as error:  # ImportError, or a numba that does not load here
-        numba = None
-        IMPORT_ERROR = error
-
-
-def _njit(function):
-    return numba.njit(cache=True, nogil=True)(function) if numba is not None else function
 
 
 @_njit
@@ -406,3 +358,77 @@ def _joint_blocks(h_x, h_m, state_covariance, local, out):
                     for q in range(width):
                         total += left[r, rows[b, q]] * jac[b, c, q]
                     out[a, b, r, c] = total
+
+
+@_njit
+def gated_candidates(nis, threshold):
+    """(gated (K, N): nis <= threshold, start (K + 1,), columns (E,)): row i's gated columns
+    are columns[start[i]:start[i + 1]], sorted by NIS, ties by column (a stable insertion sort:
+    numpy's stable argsort of the gated NIS)."""
+    k, n = nis.shape
+    gated = np.empty((k, n), dtype=np.bool_)
+    start = np.zeros(k + 1, dtype=np.int64)
+    columns = np.empty(k * n, dtype=np.int64)
+    e = 0
+    for i in range(k):
+        first = e
+        for j in range(n):
+            value = nis[i, j]
+            inside = value <= threshold
+            gated[i, j] = inside
+            if inside:
+                q = e
+                while q > first and nis[i, columns[q - 1]] > value:
+                    columns[q] = columns[q - 1]
+                    q -= 1
+                columns[q] = j
+                e += 1
+        start[i + 1] = e
+    return gated, start, columns[:e].copy()
+
+
+@_njit
+def search_layout(order, start, columns, n):
+    """The search's index arrays for the observations `order` (k,) with candidate lists
+    (start, columns) (CSR over K observations, landmark columns < n): cptr (k + 1,) and per
+    entry (E = cptr[k]) ccols, rows (its observation) and cloc (its local landmark); local
+    (L,): the landmarks that are anyone's candidate, position_of (n,): their local index (-1:
+    none); lptr (L + 1,), lpos: the positions searching each local landmark (CSR, ascending)."""
+    k = order.shape[0]
+    cptr = np.zeros(k + 1, dtype=np.int64)
+    for t in range(k):
+        cptr[t + 1] = cptr[t] + start[order[t] + 1] - start[order[t]]
+    total = cptr[k]
+    ccols = np.empty(total, dtype=np.int64)
+    rows = np.empty(total, dtype=np.int64)
+    for t in range(k):
+        i = order[t]
+        for e in range(cptr[t], cptr[t + 1]):
+            ccols[e] = columns[start[i] + e - cptr[t]]
+            rows[e] = i
+    position_of = np.full(n, -1, dtype=np.int64)
+    for c in columns:
+        position_of[c] = 0
+    count = 0
+    for j in range(n):
+        if position_of[j] == 0:
+            position_of[j] = count
+            count += 1
+    local = np.empty(count, dtype=np.int64)
+    for j in range(n):
+        if position_of[j] >= 0:
+            local[position_of[j]] = j
+    cloc = np.empty(total, dtype=np.int64)
+    lptr = np.zeros(count + 1, dtype=np.int64)
+    for e in range(total):
+        cloc[e] = position_of[ccols[e]]
+        lptr[cloc[e] + 1] += 1
+    for a in range(count):
+        lptr[a + 1] += lptr[a]
+    fill = lptr[:count].copy()
+    lpos = np.empty(total, dtype=np.int64)
+    for t in range(k):
+        for e in range(cptr[t], cptr[t + 1]):
+            lpos[fill[cloc[e]]] = t
+            fill[cloc[e]] += 1
+    return cptr, ccols, rows, cloc, local, position_of, lptr, lpos

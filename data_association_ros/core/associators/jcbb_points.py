@@ -29,7 +29,7 @@ from ..transforms import estimate_rigid_transform, ransac_rigid_transform
 from .base import Associator
 from .jcbb import deadline_of, individually_compatible, search_result
 from .joint_compatibility import (MAX_NODES, TIME_BUDGET_MS, joint_compatibility_search,
-                                  prepare_search)
+                                  prepare_search, search_order)
 
 MINIMAL_ITERATIONS = ParameterSpec(
     'minimal_iterations', 50, 'cap on the pairs dropped while building the minimal association',
@@ -52,7 +52,7 @@ def joint_nis_terms(problem, pairs: list[tuple[int, int]]):
     index = np.arange(l)
     # diagonal blocks: S_ij = H P H^T + R (with the covariance floor), as the search uses
     c.reshape(l, m, l, m)[index, :, index, :] = problem.innovation_covariances[rows, columns]
-    nu = problem.innovations[rows, columns].reshape(l * m)
+    nu = problem.innovations_of(rows, columns).reshape(l * m)
     q_nu = np.linalg.solve(c, nu)
     d2 = float(nu @ q_nu)
     inverse = np.linalg.inv(c).reshape(l, m, l, m)
@@ -94,8 +94,7 @@ def run(problem, gate_probability: float, min_innovation_variance: float, time_b
     minimal = minimal_association(problem, initial, gate_probability, minimal_iterations) \
         if initial else []
     in_minimal = {i for i, _ in minimal}
-    order = sorted((i for i in range(len(candidates)) if len(candidates[i])
-                    and i not in in_minimal), key=lambda i: (len(candidates[i]), i))
+    order = search_order(candidates.counts, in_minimal)
     search = joint_compatibility_search(problem, gate_probability, candidates, order,
                                         deadline_of(started, time_budget_ms), max_nodes)
     nis = search.start_from(minimal)

@@ -21,11 +21,12 @@ from __future__ import annotations
 import math
 import sys
 import time
-from contextlib import contextmanager
-from typing import Iterator, Optional
+from collections.abc import Sequence
+from typing import Optional
 
 import numpy as np
 
+from .. import jit
 from ..gating import chi2_threshold
 from ..parameters import ParameterSpec
 
@@ -57,6 +58,51 @@ def _inverse_cholesky(matrix: np.ndarray) -> Optional[np.ndarray]:
     return np.linalg.inv(factor)
 
 
+class CandidateLists(Sequence):
+    """Each observation's candidate landmark columns (individually compatible, sorted by NIS):
+    row i is columns[start[i]:start[i + 1]] (CSR: start (K + 1,), columns (E,), int64)."""
+
+    def __init__(self, start: np.ndarray, columns: np.ndarray) -> None:
+        self.start = start
+        self.columns = columns
+
+    @classmethod
+    def of(cls, lists) -> 'CandidateLists':
+        """The CandidateLists of a sequence of column arrays (itself when it is one)."""
+        if isinstance(lists, CandidateLists):
+            return lists
+        start = np.zeros(len(lists) + 1, dtype=np.int64)
+        np.cumsum([len(c) for c in lists], out=start[1:])
+        columns = np.concatenate(lists).astype(np.int64) if start[-1] else \
+            np.zeros(0, dtype=np.int64)
+        return cls(start, columns)
+
+    @property
+    def counts(self) -> np.ndarray:
+        """Candidates per observation (K,)."""
+        return np.diff(self.start)
+
+    def __len__(self) -> int:
+        return len(self.start) - 1
+
+    def __getitem__(self, i):
+        if not isinstance(i, (int, np.integer)):
+            raise TypeError('CandidateLists: one row at a time')
+        if not -len(self) <= i < len(self):
+            raise IndexError(i)
+        i = int(i) % len(self)
+        return self.columns[self.start[i]:self.start[i + 1]]
+
+
+def search_order(counts: np.ndarray, skip=()) -> list[int]:
+    """The observations with candidates (counts (K,)), fewest candidates first, ties by index,
+    without those in `skip`."""
+    rows = np.flatnonzero(counts)
+    if len(skip):
+        rows = rows[~np.isin(rows, list(skip))]
+    return rows[np.argsort(counts[rows], kind='stable')].tolist()
+
+
 class JointCompatibilitySearch:
     """Depth-first branch and bound over observations (fewest candidates first).
 
@@ -67,7 +113,7 @@ class JointCompatibilitySearch:
     new rows of L^-1 = [-D_L^-1 X^T L^-1, D_L^-1].
     """
 
-    def __init__(self, problem, gate_probability: float, candidates: list[np.ndarray],
+    def __init__(self, problem, gate_probability: float, candidates: Sequence[np.ndarray],
                  order: list[int], deadline: Optional[float], max_nodes: int,
                  classic: bool = False, nis_ties: bool = True) -> None:
         m = problem.observations.dim
@@ -217,40 +263,25 @@ class JointCompatibilitySearch:
 
 
 
-def joint_compatibility_search(problem, gate_probability: float, candidates: list[np.ndarray],
+def joint_compatibility_search(problem, gate_probability: float, candidates: Sequence[np.ndarray],
                                order: list[int], deadline: Optional[float], max_nodes: int,
                                classic: bool = False, nis_ties: bool = True):
     """The search of JointCompatibilitySearch's arguments: jcbb_compiled.CompiledSearch (the
-    same answer, node count and truncation) when numba is available and compiled() is on, else
+    same answer, node count and truncation) when numba is available and jit.compiled() is on, else
     JointCompatibilitySearch."""
     from . import jcbb_compiled
-    kind = jcbb_compiled.CompiledSearch if _COMPILED[0] and jcbb_compiled.available() \
+    kind = jcbb_compiled.CompiledSearch if jit.enabled() and jcbb_compiled.available() \
         else JointCompatibilitySearch
     return kind(problem, gate_probability, candidates, order, deadline, max_nodes, classic,
                 nis_ties)
 
 
-_COMPILED = [True]
-
-
 def prepare_search() -> None:
     """Compile (or load) the compiled search now, if it is on: callers do this before they start
     a time budget's clock, so that a process's first search is not cut short by it."""
-    if _COMPILED[0]:
+    if jit.enabled():
         from . import jcbb_compiled
         jcbb_compiled.available()
-
-
-@contextmanager
-def compiled(enabled: bool) -> Iterator[None]:
-    """Within the block, joint_compatibility_search uses the compiled search (when available)
-    or not (the pure-Python one: the reference for tests and the benchmark's baseline)."""
-    previous = _COMPILED[0]
-    _COMPILED[0] = enabled
-    try:
-        yield
-    finally:
-        _COMPILED[0] = previous
 
 
 def _warm_up_problem() -> None:

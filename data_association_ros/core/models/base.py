@@ -55,6 +55,14 @@ class MeasurementModel:
         of innovation_components)."""
         return np.moveaxis(self.innovation_components(values, predictions), 0, -1)
 
+    def pair_innovations(self, values: np.ndarray, predictions: np.ndarray) -> np.ndarray:
+        """nu[e] = z_e - h_e, angular components wrapped: (E, m), (E, m) -> (E, m) (the same
+        numbers as innovation's [i, j] for z_i, h_j)."""
+        nu = values - predictions
+        for c in self.angular:
+            nu[:, c] = wrap_angle(nu[:, c])
+        return nu
+
     def innovation_components(self, values: np.ndarray, predictions: np.ndarray) -> np.ndarray:
         """nu[c, i, j] = z_ic - h_jc, angular components wrapped: (K, m), (N, m) -> (m, K, N),
         each component contiguous (a (K, N, m) broadcast costs about 10x its m passes)."""

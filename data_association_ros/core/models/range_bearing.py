@@ -1,6 +1,7 @@
 """range_bearing: z = (range [m], bearing [rad] in the robot frame, wrapped to (-pi, pi])."""
 import numpy as np
 
+from .. import jit
 from .base import MeasurementModel, wrap_angle
 
 
@@ -15,6 +16,9 @@ class RangeBearingModel(MeasurementModel):
         return 2
 
     def predict(self, means, pose):
+        kernels = jit.problem_kernels()
+        if kernels is not None:
+            return kernels.run_range_bearing_predict(means, pose)
         dx = means[:, 0] - pose[0]
         dy = means[:, 1] - pose[1]
         q = np.maximum(dx * dx + dy * dy, 1e-18)

@@ -1,0 +1,360 @@
+"""Compiled (numba) forms of AssociationProblem's per-scan arithmetic (core/problem.py defines
+each quantity and keeps the numpy form, used without numba and inside jit.compiled(False)):
+
+* range_bearing_predict: the range-bearing model's predictions and Jacobians;
+* prediction_covariances: H_j P_j H_j^T (N, m, m), P_j the covariance of [pose, landmark j];
+* nis_2d: d2_ij (K, N) for m = 2 from the observations and predictions, angular components
+  wrapped, S_ij = H_j P_j H_j^T + R_i (diagonal floored), without the (K, N, m) innovations;
+* pair_terms: nu and S of chosen pairs only (the JCBB search's candidates);
+* is_covariance_matrix, are_spd_2x2: the checks of a joint covariance and of 2 x 2 covariance
+  stacks on arrival;
+* first_indefinite_block: the first landmark whose [pose, landmark] block of a joint covariance
+  is not positive semi-definite (check_definite).
+
+One pass over the data each instead of a few dozen numpy calls of 1-10 us; the arithmetic is
+numpy's (same formulas, same order within nis_2d; the 3 x 3 products may round differently).
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+import numpy as np
+
+from .jit import Kernels, njit
+
+TWO_PI = 2.0 * np.pi
+INV_TWO_PI = 1.0 / TWO_PI
+
+
+@njit
+def prediction_covariances(h_x, h_m, pose_covariance, landmark_covariances, state, out):
+    """out[j] = A_j P_j A_j^T (N, m, m), A_j = [h_x[j] (m, 3), h_m[j] (m, d)]; P_j is the
+    block of [pose, landmark j] of `state` ((3 + N d) square) when it has rows, else
+    blockdiag(pose_covariance (3, 3), landmark_covariances[j] (d, d))."""
+    n, m, d = h_m.shape
+    width = 3 + d
+    joint = state.shape[0] > 0
+    block = np.zeros((width, width))
+    left = np.empty((m, width))
+    if not joint:
+        for a in range(3):
+            for b in range(3):
+                block[a, b] = pose_covariance[a, b]
+    for j in range(n):
+        if joint:
+            for a in range(width):
+                row = a if a < 3 else 3 + j * d + a - 3
+                for b in range(width):
+                    block[a, b] = state[row, b if b < 3 else 3 + j * d + b - 3]
+        else:
+            for a in range(d):
+                for b in range(d):
+                    block[3 + a, 3 + b] = landmark_covariances[j, a, b]
+        for r in range(m):
+            for c in range(width):
+                total = 0.0
+                for q in range(3):
+                    total += h_x[j, r, q] * block[q, c]
+                for q in range(d):
+                    total += h_m[j, r, q] * block[3 + q, c]
+                left[r, c] = total
+        for r in range(m):
+            for c in range(m):
+                total = 0.0
+                for q in range(3):
+                    total += left[r, q] * h_x[j, c, q]
+                for q in range(d):
+                    total += left[r, 3 + q] * h_m[j, c, q]
+                out[j, r, c] = total
+
+
+@njit
+def _wrap(angle):
+    """wrap_angle (models/base.py) of one angle: a - 2 pi floor((a + pi) / (2 pi)), then one
+    turn added or taken where rounding left it outside (-pi, pi]."""
+    wrapped = angle - TWO_PI * np.floor((angle + np.pi) * INV_TWO_PI)
+    if wrapped <= -np.pi:
+        wrapped += TWO_PI
+    if wrapped > np.pi:
+        wrapped -= TWO_PI
+    return wrapped
+
+
+@njit
+def range_bearing_predict(means, pose, h, h_landmark, h_pose):
+    """RangeBearingModel.predict (models/range_bearing.py) into h (N, 2), h_landmark (N, 2, 2)
+    and h_pose (N, 2, 3) for landmark means (N, 2) and pose (3,)."""
+    for j in range(means.shape[0]):
+        dx = means[j, 0] - pose[0]
+        dy = means[j, 1] - pose[1]
+        q = max(dx * dx + dy * dy, 1e-18)
+        r = np.sqrt(q)
+        h[j, 0] = r
+        h[j, 1] = _wrap(np.arctan2(dy, dx) - pose[2])
+        h_landmark[j, 0, 0] = dx / r
+        h_landmark[j, 0, 1] = dy / r
+        h_landmark[j, 1, 0] = -dy / q
+        h_landmark[j, 1, 1] = dx / q
+        h_pose[j, 0, 0] = -h_landmark[j, 0, 0]
+        h_pose[j, 0, 1] = -h_landmark[j, 0, 1]
+        h_pose[j, 0, 2] = 0.0
+        h_pose[j, 1, 0] = -h_landmark[j, 1, 0]
+        h_pose[j, 1, 1] = -h_landmark[j, 1, 1]
+        h_pose[j, 1, 2] = -1.0
+
+
+@njit
+def nis_2d(values, predictions, angular, prediction_covariances, r, shared, floor, out):
+    """out[i, j] = nu^T S^-1 nu (K, N) with nu = values[i] - predictions[j] ((K, 2), (N, 2);
+    component c wrapped when angular[c]) and S = prediction_covariances[j] + r[0 if shared
+    else i], its diagonal raised to `floor`; inf where det S <= 0 or the value is not finite
+    or negative (problem.nis_2d's closed form, term by term: with a shared R the coefficients
+    s_11 / det, -2 s_01 / det, s_00 / det are formed once per landmark, as numpy does)."""
+    k, n = out.shape
+    pairs = 1 if shared else k
+    c0 = np.empty((pairs, n))
+    c1 = np.empty((pairs, n))
+    c2 = np.empty((pairs, n))
+    for i in range(pairs):
+        for j in range(n):
+            s00 = max(prediction_covariances[j, 0, 0] + r[i, 0, 0], floor)
+            s01 = prediction_covariances[j, 0, 1] + r[i, 0, 1]
+            s11 = max(prediction_covariances[j, 1, 1] + r[i, 1, 1], floor)
+            det = s00 * s11 - s01 * s01
+            scale = 1.0 / det if det > 0 else np.nan
+            c0[i, j] = s11 * scale
+            c1[i, j] = -2.0 * s01 * scale
+            c2[i, j] = s00 * scale
+    for i in range(k):
+        row = 0 if shared else i
+        for j in range(n):
+            a = values[i, 0] - predictions[j, 0]
+            b = values[i, 1] - predictions[j, 1]
+            if angular[0]:
+                a = _wrap(a)
+            if angular[1]:
+                b = _wrap(b)
+            d2 = a * a * c0[row, j]
+            d2 += a * b * c1[row, j]
+            d2 += b * b * c2[row, j]
+            out[i, j] = d2 if d2 < np.inf and d2 >= 0 else np.inf
+
+
+@njit
+def pair_terms(values, predictions, angular, prediction_covariances, r, floor, rows, columns,
+               nu, s):
+    """nu[e] = values[i] - predictions[j] (angular components wrapped) and s[e] =
+    prediction_covariances[j] + r[i], its diagonal raised to `floor`, for the pairs
+    (i, j) = (rows[e], columns[e])."""
+    m = values.shape[1]
+    for e in range(rows.shape[0]):
+        i = rows[e]
+        j = columns[e]
+        for c in range(m):
+            value = values[i, c] - predictions[j, c]
+            nu[e, c] = _wrap(value) if angular[c] else value
+            for b in range(m):
+                total = prediction_covariances[j, c, b] + r[i, c, b]
+                s[e, c, b] = max(total, floor) if b == c else total
+
+
+@njit
+def is_covariance_matrix(matrix):
+    """True when the square `matrix` is finite, symmetric within 1e-9 (1 + max |entry|) and
+    has no negative diagonal entry (validation.check_covariance_matrix's tests in one pass)."""
+    n = matrix.shape[0]
+    largest = 0.0
+    for a in range(n):
+        for b in range(n):
+            value = matrix[a, b]
+            if not np.isfinite(value):
+                return False
+            largest = max(largest, abs(value))
+        if matrix[a, a] < 0:
+            return False
+    tolerance = 1e-9 * (1.0 + largest)
+    for a in range(n):
+        for b in range(a):
+            if abs(matrix[a, b] - matrix[b, a]) > tolerance:
+                return False
+    return True
+
+
+@njit
+def are_spd_2x2(matrices):
+    """True when every matrix of the (n, 2, 2) stack is finite, symmetric within 1e-9 and has
+    its smaller eigenvalue (a + c) / 2 - hypot((a - c) / 2, b) above 1e-12, both relative to
+    1 + max |entry| (validation.check_spd's tests in one pass)."""
+    for k in range(matrices.shape[0]):
+        a = matrices[k, 0, 0]
+        b = matrices[k, 0, 1]
+        b_t = matrices[k, 1, 0]
+        c = matrices[k, 1, 1]
+        if not (np.isfinite(a) and np.isfinite(b) and np.isfinite(b_t) and np.isfinite(c)):
+            return False
+        scale = 1.0 + max(max(abs(a), abs(b)), max(abs(b_t), abs(c)))
+        if abs(b - b_t) > 1e-9 * scale:
+            return False
+        if not 0.5 * (a + c) - np.hypot(0.5 * (a - c), b) > 1e-12 * scale:
+            return False
+    return True
+
+
+@njit
+def first_indefinite_block(state, n, d):
+    """The first j < n whose block of [pose (3), landmark j (d)] of `state` ((3 + n d) square)
+    is not positive semi-definite, -1 when none: Cholesky of the block plus 2e-9 (1 + max |entry|)
+    on the diagonal, as validation.check_positive_semidefinite."""
+    width = 3 + d
+    block = np.empty((width, width))
+    factor = np.zeros((width, width))
+    for j in range(n):
+        largest = 0.0
+        for a in range(width):
+            row = a if a < 3 else 3 + j * d + a - 3
+            for b in range(width):
+                value = state[row, b if b < 3 else 3 + j * d + b - 3]
+                block[a, b] = value
+                largest = max(largest, abs(value))
+        jitter = 2e-9 * (1.0 + largest)
+        for a in range(width):
+            for b in range(a + 1):
+                total = block[a, b] + (jitter if a == b else 0.0)
+                for q in range(b):
+                    total -= factor[a, q] * factor[b, q]
+                if a == b:
+                    if not total > 0.0:
+                        return j
+                    factor[a, a] = np.sqrt(total)
+                else:
+                    factor[a, b] = total / factor[b, b]
+    return -1
+
+
+def _read_only(array, dtype=np.float64) -> np.ndarray:
+    """A read-only C-contiguous view of `array` as `dtype` (a copy only when it is not one)."""
+    view = np.ascontiguousarray(array, dtype=dtype).view()
+    view.flags.writeable = False
+    return view
+
+
+# Every input goes to a kernel as a read-only C-contiguous view (_read_only), every output is a
+# fresh array, so numba compiles one version of each kernel, in _warm_up, and never at a scan.
+_NO_STATE = _read_only(np.zeros((0, 0)))
+_ZERO_POSE = _read_only(np.zeros((3, 3)))
+_NO_LANDMARKS = {d: _read_only(np.zeros((0, d, d))) for d in range(1, 5)}
+_FLAGS = {m: {angular: _read_only([c in angular for c in range(m)], np.bool_)
+              for angular in ((), (0,), (1,))} for m in range(1, 5)}
+
+
+def _angular_flags(m: int, angular: tuple[int, ...]) -> np.ndarray:
+    """(m,) bool, True at the angular components."""
+    flags = _FLAGS.get(m, {}).get(tuple(angular))
+    return flags if flags is not None else _read_only([c in angular for c in range(m)], np.bool_)
+
+
+def run_range_bearing_predict(means: np.ndarray, pose: np.ndarray
+                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(h (N, 2), dh/dm (N, 2, 2), dh/dpose (N, 2, 3)) by range_bearing_predict."""
+    n = means.shape[0]
+    out = np.empty((n, 2)), np.empty((n, 2, 2)), np.empty((n, 2, 3))
+    range_bearing_predict(_read_only(means), _read_only(pose), *out)
+    return out
+
+
+def run_prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance: np.ndarray,
+                               landmark_covariances: Optional[np.ndarray],
+                               state: Optional[np.ndarray]) -> np.ndarray:
+    """prediction_covariances (N, m, m) from h_x (N, m, 3), h_m (N, m, d) and either the joint
+    covariance `state` or the pose covariance (3, 3) and Cov(m_j) (N, d, d)."""
+    n, m, d = h_m.shape
+    out = np.empty((n, m, m))
+    if state is not None:
+        pose_covariance, landmark_covariances = _ZERO_POSE, _NO_LANDMARKS[d]
+    else:
+        state = _NO_STATE
+    prediction_covariances(_read_only(h_x), _read_only(h_m), _read_only(pose_covariance),
+                           _read_only(landmark_covariances), _read_only(state), out)
+    return out
+
+
+def run_nis_2d(values: np.ndarray, predictions: np.ndarray, angular: tuple[int, ...],
+               prediction_covs: np.ndarray, r: np.ndarray, shared: bool,
+               floor: float) -> np.ndarray:
+    """nis_2d (K, N) for values (K, 2), predictions (N, 2), the angular components' indices,
+    H P H^T (N, 2, 2) and R (K, 2, 2) (shared: every R is r[0]); floor <= 0: none."""
+    out = np.empty((values.shape[0], predictions.shape[0]))
+    nis_2d(_read_only(values), _read_only(predictions), _angular_flags(2, angular),
+           _read_only(prediction_covs), _read_only(r), bool(shared),
+           float(floor) if floor > 0 else -np.inf, out)
+    return out
+
+
+def run_pair_terms(values: np.ndarray, predictions: np.ndarray, angular: tuple[int, ...],
+                   prediction_covs: np.ndarray, r: np.ndarray, floor: float, rows: np.ndarray,
+                   columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(nu (E, m), S (E, m, m)) of the pairs (rows[e], columns[e]) by pair_terms; floor <= 0:
+    none."""
+    count, m = len(rows), values.shape[1]
+    nu, s = np.empty((count, m)), np.empty((count, m, m))
+    pair_terms(_read_only(values), _read_only(predictions), _angular_flags(m, angular),
+               _read_only(prediction_covs), _read_only(r),
+               float(floor) if floor > 0 else -np.inf, _read_only(rows, np.int64),
+               _read_only(columns, np.int64), nu, s)
+    return nu, s
+
+
+def run_is_covariance_matrix(matrix: np.ndarray) -> bool:
+    """is_covariance_matrix of a square float64 matrix."""
+    return bool(is_covariance_matrix(_read_only(matrix)))
+
+
+def run_are_spd_2x2(matrices: np.ndarray) -> bool:
+    """are_spd_2x2 of a float64 (n, 2, 2) stack."""
+    return bool(are_spd_2x2(_read_only(matrices)))
+
+
+def run_first_indefinite_block(state: np.ndarray, n: int, d: int) -> int:
+    """first_indefinite_block of a joint covariance of n landmarks of dimension d."""
+    return int(first_indefinite_block(_read_only(state), int(n), int(d)))
+
+
+def _warm_up() -> None:
+    """Run every kernel through its run_ function (with and without a joint covariance) on a
+    tiny input and check the values against their closed forms."""
+    h_x = np.zeros((2, 2, 3))
+    h_x[:, :, :2] = -np.eye(2)
+    h_m = np.tile(np.eye(2), (2, 1, 1))
+    h, jacobian, pose_jacobian = run_range_bearing_predict(np.array([[3.0, 4.0]]),
+                                                           np.array([0.0, 0.0, np.pi / 2]))
+    if not (np.allclose(h, [[5.0, np.arctan2(4.0, 3.0) - np.pi / 2]])
+            and np.allclose(jacobian, [[[0.6, 0.8], [-0.16, 0.12]]])
+            and np.allclose(pose_jacobian, [[[-0.6, -0.8, 0.0], [0.16, -0.12, -1.0]]])):
+        raise RuntimeError(f'range_bearing_predict warm-up: {h} {jacobian} {pose_jacobian}')
+    blocks = run_prediction_covariances(h_x, h_m, np.eye(3) * 0.5,
+                                        np.tile(np.eye(2) * 0.25, (2, 1, 1)), None)
+    joint = run_prediction_covariances(h_x, h_m, np.zeros((3, 3)), None, np.eye(7) * 0.5)
+    if not (np.allclose(blocks, 0.75 * np.eye(2)) and np.allclose(joint, np.eye(2))):
+        raise RuntimeError('prediction_covariances warm-up: wrong values')
+    if not run_is_covariance_matrix(np.eye(3)) or \
+            run_is_covariance_matrix(np.array([[1.0, 2.0], [0.0, 1.0]])):
+        raise RuntimeError('is_covariance_matrix warm-up: wrong answer')
+    if not run_are_spd_2x2(np.tile(np.eye(2), (3, 1, 1))) or \
+            run_are_spd_2x2(np.array([[[1.0, 2.0], [2.0, 1.0]]])):
+        raise RuntimeError('are_spd_2x2 warm-up: wrong answer')
+    if run_first_indefinite_block(np.eye(7), 2, 2) != -1 or \
+            run_first_indefinite_block(-np.eye(7), 2, 2) != 0:
+        raise RuntimeError('first_indefinite_block warm-up: wrong answer')
+    r = np.tile(np.eye(2), (1, 1, 1))
+    for shared in (True, False):   # nu = (1, 0), S = 1 + 1
+        nis = run_nis_2d(np.array([[1.0, 0.0]]), np.zeros((2, 2)), (1,), joint, r, shared, 0.0)
+        if not np.allclose(nis, 0.5):
+            raise RuntimeError(f'nis_2d warm-up: {nis} instead of 0.5')
+    nu, s = run_pair_terms(np.array([[1.0, 4.0]]), np.zeros((2, 2)), (1,), joint, r, 2.5,
+                           np.array([0]), np.array([1]))
+    if not (np.allclose(nu, [[1.0, 4.0 - 2.0 * np.pi]]) and np.allclose(s, 2.5 * np.eye(2))):
+        raise RuntimeError(f'pair_terms warm-up: {nu} {s}')
+
+
+KERNELS = Kernels(_warm_up)
+"""These kernels' availability (compiled or loaded from the cache at the first use)."""
