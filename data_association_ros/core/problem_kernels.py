@@ -270,7 +270,10 @@ def run_prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance
     n, m, d = h_m.shape
     out = np.empty((n, m, m))
     if state is not None:
-        pose_covariance, landmark_covariances = _ZERO_POSE, _NO_LANDMARKS[d]
+        pose_covariance = _ZERO_POSE
+        landmark_covariances = _NO_LANDMARKS.get(d)
+        if landmark_covariances is None:
+            landmark_covariances = np.zeros((0, d, d))
     else:
         state = _NO_STATE
     prediction_covariances(_read_only(h_x), _read_only(h_m), _read_only(pose_covariance),
