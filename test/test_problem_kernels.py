@@ -3,6 +3,10 @@
 prediction covariances, NIS, pair terms, candidate lists and the covariance checks, on random
 problems of every 2-D model, with and without a joint covariance, per-observation R and a
 variance floor."""
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -10,10 +14,11 @@ from hypothesis import strategies as st
 
 from data_association_ros import Landmarks, Observations, RobotPose
 from data_association_ros.core import jit, problem_kernels
-from data_association_ros.core.associators import jcbb_compiled
+from data_association_ros.core.associators import jcbb_compiled, jcbb_kernels
 from data_association_ros.core.associators.jcbb import individually_compatible
 from data_association_ros.core.errors import InvalidInputError
-from data_association_ros.core.problem import AssociationProblem
+from data_association_ros.core.models import wrap_angle
+from data_association_ros.core.problem import AssociationProblem, nis_2d, nis_2d_of_sum
 from data_association_ros.core.validation import check_covariance_matrix
 from problem_factory import pair_nis, random_range_bearing_problem
 
@@ -164,12 +169,17 @@ def test_one_compiled_version_per_kernel():
             for joint in (False, True):
                 problem = random_problem(seed, model, joint, seed % 2 == 0, 0.0)
                 problem.check_definite()
-                individually_compatible(problem, 0.99)
+                _, candidates, order = individually_compatible(problem, 0.99)
+                jcbb_compiled.CompiledSearch(problem, 0.99, candidates, order, None, 0).run()
                 problem.pair_terms(np.zeros(1, dtype=np.int32), np.zeros(1, dtype=np.int64)) \
                     if min(problem.sizes) else None
+        Observations(problem.observations.values, problem.observations.covariances.copy(),
+                     problem.observations.model)
     for name in ('range_bearing_predict', 'prediction_covariances', 'nis_2d', 'pair_terms',
-                 'is_covariance_matrix', 'first_indefinite_block'):
+                 'is_covariance_matrix', 'are_spd_2x2', 'first_indefinite_block'):
         assert len(getattr(problem_kernels, name).signatures) == 1, name
+    for name in ('gated_candidates', 'search_layout'):
+        assert len(getattr(jcbb_kernels, name).signatures) == 1, name
 
 
 def test_numpy_path_answers_inside_compiled_false():
@@ -202,3 +212,53 @@ def test_covariance_stack_check_same_either_way(defect, message):
             else:
                 with pytest.raises(InvalidInputError, match=message):
                     Observations(np.zeros((3, 2)), covariances)
+
+
+finite_or_not = st.one_of(st.floats(-1e3, 1e3), st.floats(allow_nan=True, allow_infinity=True),
+                          st.sampled_from([0.0, 1e-300, 1e300, -1e300, np.pi, -np.pi]))
+
+
+@needs_kernels
+@settings(max_examples=300, deadline=None)
+@given(data=st.data(), k=st.integers(1, 4), n=st.integers(1, 4), shared=st.booleans(),
+       floor=st.sampled_from([0.0, 1e-9, 1.0]), angular=st.sampled_from([(), (1,)]))
+def test_nis_kernel_equals_numpy_on_adversarial_numbers(data, k, n, shared, floor, angular):
+    """NaN, inf and overflowing S or innovations (reachable through absurd magnitudes): the
+    kernel's NIS is numpy's, inf where numpy's is (a NaN in S must not become the floor)."""
+    def array(*shape):
+        return np.array(data.draw(st.lists(finite_or_not, min_size=int(np.prod(shape)),
+                                           max_size=int(np.prod(shape))))).reshape(shape)
+    values, predictions, prediction_covs, r = array(k, 2), array(n, 2), array(n, 2, 2), \
+        array(k, 2, 2)
+    if shared:
+        r[:] = r[0]
+    with np.errstate(all="ignore"):
+        nu = np.stack([values[:, None, c] - predictions[None, :, c] for c in range(2)])
+    with np.errstate(all='ignore'):
+        for c in angular:
+            nu[c] = wrap_angle(nu[c])
+        if shared:
+            s = prediction_covs + r[0]
+            if floor > 0:
+                s[:, 0, 0], s[:, 1, 1] = np.maximum(s[:, 0, 0], floor), np.maximum(s[:, 1, 1],
+                                                                                     floor)
+            expected = nis_2d(nu[0], nu[1], s[:, 0, 0], s[:, 0, 1], s[:, 1, 1])
+        else:
+            expected = nis_2d_of_sum(nu[0], nu[1], prediction_covs, r,
+                                     floor if floor > 0 else -np.inf)
+        got = problem_kernels.run_nis_2d(values, predictions, angular, prediction_covs, r,
+                                         shared, floor)
+    np.testing.assert_array_equal(np.isinf(got), np.isinf(expected))
+    both = np.isfinite(expected)
+    np.testing.assert_allclose(got[both], expected[both], rtol=1e-12, atol=0)
+
+
+def test_importing_the_library_does_not_import_numba():
+    """numba (about 0.5 s to import) is loaded at the first NIS or check, not by the import."""
+    code = ('import sys, data_association_ros; from data_association_ros.core.api import '
+            'associate; from data_association_ros.core.associators import REGISTRY; '
+            'print("numba" in sys.modules)')
+    output = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                            cwd=Path(__file__).resolve().parents[1], timeout=120)
+    assert output.returncode == 0, output.stderr
+    assert output.stdout.strip() == 'False'

@@ -81,13 +81,19 @@ def _wrap(angle):
 
 
 @njit
+def _at_least(value, low):
+    """np.maximum(value, low) of one value: NaN stays NaN (Python's max would return low)."""
+    return low if value < low else value
+
+
+@njit
 def range_bearing_predict(means, pose, h, h_landmark, h_pose):
     """RangeBearingModel.predict (models/range_bearing.py) into h (N, 2), h_landmark (N, 2, 2)
     and h_pose (N, 2, 3) for landmark means (N, 2) and pose (3,)."""
     for j in range(means.shape[0]):
         dx = means[j, 0] - pose[0]
         dy = means[j, 1] - pose[1]
-        q = max(dx * dx + dy * dy, 1e-18)
+        q = _at_least(dx * dx + dy * dy, 1e-18)
         r = np.sqrt(q)
         h[j, 0] = r
         h[j, 1] = _wrap(np.arctan2(dy, dx) - pose[2])
@@ -117,9 +123,9 @@ def nis_2d(values, predictions, angular, prediction_covariances, r, shared, floo
     c2 = np.empty((pairs, n))
     for i in range(pairs):
         for j in range(n):
-            s00 = max(prediction_covariances[j, 0, 0] + r[i, 0, 0], floor)
+            s00 = _at_least(prediction_covariances[j, 0, 0] + r[i, 0, 0], floor)
             s01 = prediction_covariances[j, 0, 1] + r[i, 0, 1]
-            s11 = max(prediction_covariances[j, 1, 1] + r[i, 1, 1], floor)
+            s11 = _at_least(prediction_covariances[j, 1, 1] + r[i, 1, 1], floor)
             det = s00 * s11 - s01 * s01
             scale = 1.0 / det if det > 0 else np.nan
             c0[i, j] = s11 * scale
@@ -155,7 +161,7 @@ def pair_terms(values, predictions, angular, prediction_covariances, r, floor, r
             nu[e, c] = _wrap(value) if angular[c] else value
             for b in range(m):
                 total = prediction_covariances[j, c, b] + r[i, c, b]
-                s[e, c, b] = max(total, floor) if b == c else total
+                s[e, c, b] = _at_least(total, floor) if b == c else total
 
 
 @njit

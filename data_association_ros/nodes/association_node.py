@@ -68,7 +68,8 @@ class AssociationNode(ParameterizedNode):
         self.create_subscription(Odometry, 'robot_pose', self._on_robot_pose, qos)
         self.create_subscription(PointCloud2, 'state_covariance',
                                  self._then_waiting(self.pipeline.on_state_covariance), qos)
-        self.create_subscription(Odometry, 'odometry', self.pipeline.on_odometry, qos)
+        self.create_subscription(Odometry, 'odometry',
+                                 self._then_waiting(self.pipeline.on_odometry), qos)
         # Created last: when inputs of one scan wait together, the executor serves
         # subscriptions in creation order, so map and pose are taken before the scan.
         self.create_subscription(PointCloud2, 'observations', self._on_observations, qos)

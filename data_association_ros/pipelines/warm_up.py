@@ -60,7 +60,9 @@ def warm_up(config: dict[str, Any]) -> dict[str, float]:
     spent per step and 'compiled' (1.0 when the compiled kernels are in use, else 0.0)."""
     spent: dict[str, float] = {}
     started = time.perf_counter()
-    spent['compiled'] = float(jit.problem_kernels() is not None and jcbb_compiled.warm_up())
+    problem_kernels_ready = jit.problem_kernels() is not None
+    search_ready = jcbb_compiled.warm_up()   # both, even when one of them failed
+    spent['compiled'] = float(problem_kernels_ready and search_ready)
     spent['compile_s'] = time.perf_counter() - started
     started = time.perf_counter()
     for probability in {config['gate_probability'], config['joint_gate_probability']}:

@@ -20,7 +20,6 @@ from .. import jit
 from ..gating import chi2_threshold, nis_gate
 from ..parameters import (GATE_PROBABILITY, JOINT_GATE_PROBABILITY, MIN_INNOVATION_VARIANCE,
                           ParameterSpec)
-from . import jcbb_compiled
 from .base import NO_LANDMARK, Associator, result
 from .joint_compatibility import (MAX_NODES, TIME_BUDGET_MS, CandidateLists,
                                   JointCompatibilitySearch, joint_compatibility_search,
@@ -40,6 +39,7 @@ def individually_compatible(problem, gate_probability: float):
     by column), search order: the observations with candidates, fewest candidates first)."""
     nis = problem.nis
     threshold = chi2_threshold(gate_probability, problem.observations.dim)
+    from . import jcbb_compiled   # here: importing the core does not import numba
     if jit.enabled() and jcbb_compiled.available():
         gated, start, columns = jcbb_compiled.gated_candidates(nis, threshold)
         return gated, CandidateLists(start, columns), search_order(np.diff(start))
