@@ -13,4 +13,4 @@ def pytest_sessionstart(session):
     any test: node processes the tests start then load them from the cache instead of compiling
     them within their start-up timeouts (a fresh clone has no cache)."""
     from data_association_ros.core.associators import jcbb_compiled
-    jcbb_compiled.warm_up()
+    jcbb_compiled.available()

@@ -340,13 +340,18 @@ class AssociationProblem:
                              + self.observations.covariances[:, None, :, :])
 
     @cached_property
-    def _shared_innovation_covariances(self) -> Optional[np.ndarray]:
-        """S_j (N, m, m) when every observation has the same R (one sensor: S_ij = S_j), so N
-        factorisations replace K N; None otherwise."""
+    def _one_noise(self) -> bool:
+        """True when every observation has the same R (one sensor: S_ij = S_j)."""
         r = self.observations.covariances
-        if len(r) == 0 or not (r == r[0]).all():
+        return len(r) > 0 and bool((r == r[0]).all())
+
+    @cached_property
+    def _shared_innovation_covariances(self) -> Optional[np.ndarray]:
+        """S_j (N, m, m) when every observation has the same R, so N factorisations replace
+        K N; None otherwise."""
+        if not self._one_noise:
             return None
-        return self._floored(self.prediction_covariances + r[0])
+        return self._floored(self.prediction_covariances + self.observations.covariances[0])
 
     @cached_property
     def nis(self) -> np.ndarray:
@@ -356,10 +361,10 @@ class AssociationProblem:
             return np.zeros((k, n))
         kernels = jit.problem_kernels() if self.observations.dim == 2 else None
         if kernels is not None:
-            r = self.observations.covariances
             return kernels.run_nis_2d(self.observations.values, self.predictions,
-                                      self.model.angular, self.prediction_covariances, r,
-                                      bool((r == r[0]).all()), self.min_innovation_variance)
+                                      self.model.angular, self.prediction_covariances,
+                                      self.observations.covariances, self._one_noise,
+                                      self.min_innovation_variance)
         nu = self.innovations
         shared = self._shared_innovation_covariances
         if shared is not None:

@@ -248,15 +248,16 @@ def _read_only(array, dtype=np.float64) -> np.ndarray:
 # fresh array, so numba compiles one version of each kernel, in _warm_up, and never at a scan.
 _NO_STATE = _read_only(np.zeros((0, 0)))
 _ZERO_POSE = _read_only(np.zeros((3, 3)))
-_NO_LANDMARKS = {d: _read_only(np.zeros((0, d, d))) for d in range(1, 5)}
-_FLAGS = {m: {angular: _read_only([c in angular for c in range(m)], np.bool_)
-              for angular in ((), (0,), (1,))} for m in range(1, 5)}
 
 
 def _angular_flags(m: int, angular: tuple[int, ...]) -> np.ndarray:
     """(m,) bool, True at the angular components."""
-    flags = _FLAGS.get(m, {}).get(tuple(angular))
-    return flags if flags is not None else _read_only([c in angular for c in range(m)], np.bool_)
+    return _read_only([c in angular for c in range(m)], np.bool_)
+
+
+def _floor(min_variance: float) -> float:
+    """The kernels' floor on S's diagonal: min_variance, -inf when it is 0 (no floor)."""
+    return float(min_variance) if min_variance > 0 else -np.inf
 
 
 def run_range_bearing_predict(means: np.ndarray, pose: np.ndarray
@@ -276,10 +277,7 @@ def run_prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance
     n, m, d = h_m.shape
     out = np.empty((n, m, m))
     if state is not None:
-        pose_covariance = _ZERO_POSE
-        landmark_covariances = _NO_LANDMARKS.get(d)
-        if landmark_covariances is None:
-            landmark_covariances = np.zeros((0, d, d))
+        pose_covariance, landmark_covariances = _ZERO_POSE, np.zeros((0, d, d))
     else:
         state = _NO_STATE
     prediction_covariances(_read_only(h_x), _read_only(h_m), _read_only(pose_covariance),
@@ -294,8 +292,7 @@ def run_nis_2d(values: np.ndarray, predictions: np.ndarray, angular: tuple[int, 
     H P H^T (N, 2, 2) and R (K, 2, 2) (shared: every R is r[0]); floor <= 0: none."""
     out = np.empty((values.shape[0], predictions.shape[0]))
     nis_2d(_read_only(values), _read_only(predictions), _angular_flags(2, angular),
-           _read_only(prediction_covs), _read_only(r), bool(shared),
-           float(floor) if floor > 0 else -np.inf, out)
+           _read_only(prediction_covs), _read_only(r), bool(shared), _floor(floor), out)
     return out
 
 
@@ -307,9 +304,8 @@ def run_pair_terms(values: np.ndarray, predictions: np.ndarray, angular: tuple[i
     count, m = len(rows), values.shape[1]
     nu, s = np.empty((count, m)), np.empty((count, m, m))
     pair_terms(_read_only(values), _read_only(predictions), _angular_flags(m, angular),
-               _read_only(prediction_covs), _read_only(r),
-               float(floor) if floor > 0 else -np.inf, _read_only(rows, np.int64),
-               _read_only(columns, np.int64), nu, s)
+               _read_only(prediction_covs), _read_only(r), _floor(floor),
+               _read_only(rows, np.int64), _read_only(columns, np.int64), nu, s)
     return nu, s
 
 

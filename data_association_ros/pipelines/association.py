@@ -188,14 +188,14 @@ class AssociationPipeline:
         pose, only its optional prior)."""
         if not len(self.landmark_history) or self._covariance_pending(msg):
             return True
-        if self.config['algorithm'] == MULTI_HYPOTHESIS:
-            return self._stamp_pending(msg, self.odometry_history.newest_stamp())
-        newest = self.pose_history.newest_stamp()
-        if newest is None or self.config['measurement_model'] in ('point_map', 'box'):
+        multi_hypothesis = self.config['algorithm'] == MULTI_HYPOTHESIS
+        newest = (self.odometry_history if multi_hypothesis else self.pose_history).newest_stamp()
+        if newest is None or not multi_hypothesis and self.config['measurement_model'] in (
+                'point_map', 'box'):
             return False
         try:
             stamp = stamp_ns(msg.header)
-            if self.config['measurement_model'] == 'auto':
+            if not multi_hypothesis and self.config['measurement_model'] == 'auto':
                 landmarks, _ = self.landmark_history.latest_not_after(stamp, 2 ** 62)
                 names = {field.name for field in msg.fields}
                 if landmarks is not None and detect_model(
@@ -203,17 +203,7 @@ class AssociationPipeline:
                     return False    # a map-frame model needs no pose
         except (AttributeError, TypeError, ValueError, InvalidInputError):
             return False
-        return self._stamp_pending(msg, newest)
-
-    def _stamp_pending(self, msg, newest: Optional[int]) -> bool:
-        """True when inputs stamped up to `newest` arrive (not None) but none within
-        pose_tolerance of msg's stamp yet."""
-        try:
-            stamp = stamp_ns(msg.header)
-        except (AttributeError, TypeError, ValueError):
-            return False
-        return newest is not None and newest < stamp - int(self.config['pose_tolerance'] *
-                                                            NS_PER_S)
+        return newest < stamp - int(self.config['pose_tolerance'] * NS_PER_S)
 
     def _map_for(self, stamp: int, config: dict[str, Any]
                  ) -> tuple[Optional[StampedLandmarks], str]:

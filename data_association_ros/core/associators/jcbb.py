@@ -42,14 +42,14 @@ def individually_compatible(problem, gate_probability: float):
     from . import jcbb_compiled   # here: importing the core does not import numba
     if jit.enabled() and jcbb_compiled.available():
         gated, start, columns = jcbb_compiled.gated_candidates(nis, threshold)
-        return gated, CandidateLists(start, columns), search_order(np.diff(start))
-    gated = nis <= threshold
-    counts = gated.sum(axis=1)
-    by_nis = np.argsort(np.where(gated, nis, np.inf), axis=1, kind='stable')
-    start = np.zeros(len(counts) + 1, dtype=np.int64)
-    np.cumsum(counts, out=start[1:])
-    columns = by_nis[np.arange(nis.shape[1]) < counts[:, None]].astype(np.int64)
-    return gated, CandidateLists(start, columns), search_order(counts)
+        candidates = CandidateLists(start, columns)
+    else:
+        gated = nis <= threshold
+        counts = gated.sum(axis=1)
+        by_nis = np.argsort(np.where(gated, nis, np.inf), axis=1, kind='stable')
+        candidates = CandidateLists.from_counts(
+            counts, by_nis[np.arange(nis.shape[1]) < counts[:, None]])
+    return gated, candidates, search_order(candidates.counts)
 
 
 def deadline_of(started: float, time_budget_ms: float):

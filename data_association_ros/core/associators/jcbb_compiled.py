@@ -24,7 +24,7 @@ test_jcbb_compiled.py).  What differs is how it gets there:
   covariance of the candidate landmarks by a compiled product (_joint_blocks); the candidate
   lists and the search's index arrays by gated_candidates and search_layout.
 
-The kernels are in jcbb_kernels.py (numba, cached on disk); `warm_up()` compiles (or loads)
+The kernels are in jcbb_kernels.py (numba, cached on disk); `available()` compiles (or loads)
 them ahead of the first search; DATA_ASSOCIATION_ROS_NO_JIT=1 switches them off (core/jit.py).
 """
 from __future__ import annotations
@@ -256,14 +256,9 @@ problem the first time it is asked."""
 
 
 def available() -> bool:
-    """True when numba imported and the kernels compiled (compiling or loading them now if
-    needed: see warm_up)."""
-    return KERNELS.available()
-
-
-def warm_up() -> bool:
-    """Compile (or load from the on-disk cache) the kernels by searching a tiny problem; False
-    (and the pure-Python search is used) when numba is missing or compilation fails."""
+    """True when numba imported and the kernels compiled: compiles them (or loads them from the
+    on-disk cache) by searching a tiny problem at the first call; False (and the pure-Python
+    search is used) when numba is missing or compilation fails."""
     return KERNELS.available()
 
 

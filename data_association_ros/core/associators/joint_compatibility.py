@@ -67,15 +67,19 @@ class CandidateLists(Sequence):
         self.columns = columns
 
     @classmethod
+    def from_counts(cls, counts, columns: np.ndarray) -> 'CandidateLists':
+        """Rows of counts[i] (K,) columns each, one after the other in `columns` (E,)."""
+        start = np.zeros(len(counts) + 1, dtype=np.int64)
+        np.cumsum(counts, out=start[1:])
+        return cls(start, np.asarray(columns, dtype=np.int64))
+
+    @classmethod
     def of(cls, lists) -> 'CandidateLists':
         """The CandidateLists of a sequence of column arrays (itself when it is one)."""
         if isinstance(lists, CandidateLists):
             return lists
-        start = np.zeros(len(lists) + 1, dtype=np.int64)
-        np.cumsum([len(c) for c in lists], out=start[1:])
-        columns = np.concatenate(lists).astype(np.int64) if start[-1] else \
-            np.zeros(0, dtype=np.int64)
-        return cls(start, columns)
+        counts = [len(c) for c in lists]
+        return cls.from_counts(counts, np.concatenate(lists) if sum(counts) else np.zeros(0))
 
     @property
     def counts(self) -> np.ndarray:
@@ -263,12 +267,13 @@ class JointCompatibilitySearch:
 
 
 
-def joint_compatibility_search(problem, gate_probability: float, candidates: Sequence[np.ndarray],
-                               order: list[int], deadline: Optional[float], max_nodes: int,
-                               classic: bool = False, nis_ties: bool = True):
+def joint_compatibility_search(problem, gate_probability: float,
+                               candidates: Sequence[np.ndarray], order: list[int],
+                               deadline: Optional[float], max_nodes: int, classic: bool = False,
+                               nis_ties: bool = True):
     """The search of JointCompatibilitySearch's arguments: jcbb_compiled.CompiledSearch (the
-    same answer, node count and truncation) when numba is available and jit.compiled() is on, else
-    JointCompatibilitySearch."""
+    same answer, node count and truncation) when numba is available and jit.compiled() is on,
+    else JointCompatibilitySearch."""
     from . import jcbb_compiled
     kind = jcbb_compiled.CompiledSearch if jit.enabled() and jcbb_compiled.available() \
         else JointCompatibilitySearch
