@@ -5,7 +5,7 @@ Frames: the tracker works in the scan's frame; every output carries the input's 
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 from geometry_msgs.msg import Point
@@ -47,6 +47,13 @@ def points_from_scan(msg: LaserScan) -> np.ndarray:
     ranges = np.where(valid, ranges, np.nan)
     angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges))
     return np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+
+
+def range_max_of(msg: LaserScan) -> Optional[float]:
+    """The scan's range_max [m] when it is finite and positive (points_from_scan's upper
+    limit), else None."""
+    value = float(msg.range_max)
+    return value if np.isfinite(value) and value > 0 else None
 
 
 def points_from_cloud(msg: PointCloud2) -> np.ndarray:

@@ -73,7 +73,8 @@ ROWS = {
 class Scan:
     """One scan: time [s] (its header stamp), points (K, 2) in the sensor frame, truth
     (structured: id, x, y, yaw, vx, vy, ... [, visible]), time between beams [s], the odometry
-    (time [s], pose (3,), frame) that arrived since the previous scan, the scan's frame."""
+    (time [s], pose (3,), frame) that arrived since the previous scan, the scan's frame, the
+    sensor's range_max [m] (None: unknown)."""
 
     time: float
     points: np.ndarray
@@ -81,6 +82,7 @@ class Scan:
     time_increment: float = 0.0
     odometry: list = field(default_factory=list)
     frame: str = 'laser'
+    max_range: Optional[float] = None
 
 
 @dataclass
@@ -131,10 +133,10 @@ def scans_from_messages(messages: Iterable[tuple[str, object, int]]) -> list[Sca
     odometry: list = []
     for topic, msg, _ in messages:
         if topic == SCAN:
-            from msg_adapters.lidar import points_from_scan
+            from msg_adapters.lidar import points_from_scan, range_max_of
             scans[stamp_ns(msg)] = Scan(stamp_seconds(msg), points_from_scan(msg), None,
                                         float(msg.time_increment), odometry,
-                                        msg.header.frame_id)
+                                        msg.header.frame_id, range_max_of(msg))
             odometry = []
         elif topic == OBJECTS:
             truths[stamp_ns(msg)] = cloud_to_array(msg)
@@ -171,7 +173,8 @@ def run_offline(scans: Sequence[Scan], config: TrackerConfig) -> tuple[list[Esti
         for time_s, pose, frame in scan.odometry:
             tracking.add_odometry(time_s, pose, frame)
         started = time.perf_counter()
-        reported = tracking.step(scan.points, scan.time, scan.time_increment, scan.frame)
+        reported = tracking.step(scan.points, scan.time, scan.time_increment, scan.frame,
+                                 scan.max_range)
         elapsed.append((time.perf_counter() - started) * 1000.0)
         estimates.append(Estimate(np.array([t.id for t in reported], dtype=int),
                                   np.array([t.filter.x for t in reported]).reshape(-1, 6)))

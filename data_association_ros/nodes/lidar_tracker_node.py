@@ -31,7 +31,7 @@ from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import PointCloudFormatError, diagnostics_message, pose_from_odometry
 from msg_adapters.lidar import (boundaries_cloud, points_from_cloud, points_from_scan,
-                                track_markers, tracks_cloud)
+                                range_max_of, track_markers, tracks_cloud)
 
 from ..core import InvalidInputError
 from ..core.lidar import PARAMETERS, TrackerConfig
@@ -120,16 +120,17 @@ class LidarTrackerNode(ParameterizedNode):
     def _on_scan(self, msg: LaserScan) -> None:
         end = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9 + max(
             msg.time_increment, 0.0) * max(len(msg.ranges) - 1, 0)
-        self._wait_or_process(msg.header, lambda: points_from_scan(msg), msg.time_increment,
-                              end)
+        self._wait_or_process(msg.header, lambda: (points_from_scan(msg), range_max_of(msg)),
+                              msg.time_increment, end)
 
     def _on_points(self, msg: PointCloud2) -> None:
-        self._wait_or_process(msg.header, lambda: points_from_cloud(msg), 0.0,
+        self._wait_or_process(msg.header, lambda: (points_from_cloud(msg), None), 0.0,
                               msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
 
     def _wait_or_process(self, header, convert, time_increment: float, end: float) -> None:
-        """Process the scan, or, when odometry is used and has not reached the scan's last
-        beam time `end` [s] yet, keep it until it has (at most MAX_WAITING_SCANS kept)."""
+        """Process the scan (`convert`: its points and range_max, or None), or, when odometry is
+        used and has not reached the scan's last beam time `end` [s] yet, keep it until it has
+        (at most MAX_WAITING_SCANS kept)."""
         if self.waiting or (len(self.tracking.odometry) and not self.tracking.covers(end)):
             self.waiting.append((header, convert, time_increment, end))
             while len(self.waiting) > MAX_WAITING_SCANS:
@@ -140,14 +141,15 @@ class LidarTrackerNode(ParameterizedNode):
     def _process(self, header, convert, time_increment: float = 0.0) -> None:
         stamp = header.stamp.sec + header.stamp.nanosec * 1e-9
         try:
-            points = convert()
+            points, max_range = convert()  # range_max: None for a cloud
             last = self.tracker.time
             if last is not None and stamp < last - RESTART_AFTER_S:
                 self.get_logger().warning(f'scan {last - stamp:.2f} s older than the last: '
                                           'tracker restarted')
                 self.tracking.reset()
             started = time.perf_counter()
-            tracks = self.tracking.step(points, stamp, time_increment, header.frame_id)
+            tracks = self.tracking.step(points, stamp, time_increment, header.frame_id,
+                                        max_range)
             self.last_step_ms = (time.perf_counter() - started) * 1e3
             self.step_ms.append(self.last_step_ms)
             self.scans += 1

@@ -110,9 +110,10 @@ class LidarTracking:
         self.odometry.clear()
 
     def step(self, points: np.ndarray, time: float, time_increment: float = 0.0,
-             scan_frame: str = 'laser') -> list:
+             scan_frame: str = 'laser', max_range: Optional[float] = None) -> list:
         """Reported tracks after the scan stamped `time` [s] with points (K, 2) in the sensor
-        frame in beam order (non-finite: no return).  InvalidInputError when the odometry does
+        frame in beam order (non-finite: no return), the sensor's range_max `max_range` [m]
+        (None: unknown).  InvalidInputError when the odometry does
         not cover the scan, or the time is not after the previous scan's."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         if not np.isfinite(time_increment) or time_increment < 0:
@@ -120,7 +121,7 @@ class LidarTracking:
         offsets = np.arange(len(points)) * time_increment
         if not len(self.odometry):  # the tracker finds the beam directions itself
             self.frame = scan_frame
-            return self.tracker.step(points, time, offsets=offsets)
+            return self.tracker.step(points, time, offsets=offsets, max_range=max_range)
         poses = self.odometry.at(time + (offsets if len(points) else np.zeros(1)),
                                  self.max_extrapolation)
         world = to_frame(points, poses) if len(points) else points
@@ -131,4 +132,5 @@ class LidarTracking:
         self.frame = self.odometry_frame
         sensor = self.odometry.at(np.array([time]), self.max_extrapolation)[0]
         return self.tracker.step(world, time, sensor=sensor[:2], offsets=offsets,
-                                 directions=directions)
+                                 directions=directions, max_range=max_range,
+                                 origins=poses[:, :2] if len(points) else None)

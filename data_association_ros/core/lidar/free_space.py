@@ -14,6 +14,8 @@ from typing import Optional
 
 import numpy as np
 
+RANGE_SHARE = 0.95
+"""beams: a beam without a return is free up to this share of the sensor's range_max."""
 LINEAR_TOLERANCE = 0.1
 """Beam angles of a scan are taken as evenly spaced when every return's angle lies within this
 share of one beam step of the line through the first and last return (a LaserScan: exactly)."""
@@ -57,12 +59,15 @@ def _slab(origin: np.ndarray, direction: np.ndarray, low: float, high: float
 
 
 def beams(points: np.ndarray, sensor: np.ndarray, directions: Optional[np.ndarray],
-          margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+          margin: float, max_range: Optional[float] = None
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(unit directions (K, 2), free lengths (K,), returned (K,) bool) of a scan's beams from
-    `sensor` (2,): towards the point (or directions[k] where given, NaN unknown; by default
+    `sensor` (2,) (or each beam from its own origin, (K, 2)): towards the point (or directions[k] where given, NaN unknown; by default
     beam_directions of the points seen from the sensor), free up to `margin` [m] before the
     return; a beam without one is free up to `margin` before the farthest return of the scan
-    (no return can mean out of range: the sensor reaches at least that far)."""
+    or RANGE_SHARE x the sensor's `max_range` [m] (its range_max), whichever is farther (no
+    return can mean out of range: the sensor reaches at least that far; returns near the end
+    of the range are weak, so no return there is no evidence)."""
     delta = np.asarray(points, float) - sensor
     distance = np.hypot(delta[:, 0], delta[:, 1])
     returned = np.isfinite(distance) & (distance > 0)
@@ -72,18 +77,20 @@ def beams(points: np.ndarray, sensor: np.ndarray, directions: Optional[np.ndarra
         directions = beam_directions(delta)
     directions = np.where(returned[:, None], own, np.asarray(directions, float))
     reach = distance[returned].max() if returned.any() else 0.0
+    if max_range is not None and np.isfinite(max_range):
+        reach = max(reach, RANGE_SHARE * float(max_range))
     return directions, np.where(returned, distance, reach) - margin, returned
 
 
 def near(origin: np.ndarray, directions: np.ndarray, centre: np.ndarray,
          radius: float) -> np.ndarray:
-    """Indices of the rays from `origin` (2,) along unit `directions` (R, 2) that pass within
-    `radius` [m] of `centre` (2,) ahead of the origin (a box's enclosing circle: the only rays
-    that can meet the box)."""
+    """Indices of the rays from `origin` (2,) or origins (R, 2) along unit `directions` (R, 2)
+    that pass within `radius` [m] of `centre` (2,) ahead of their origin (a box's enclosing
+    circle: the only rays that can meet the box)."""
     delta = np.asarray(centre, float) - origin
     with np.errstate(invalid='ignore'):
-        across = np.abs(directions[:, 0] * delta[1] - directions[:, 1] * delta[0])
-        along = directions @ delta
+        across = np.abs(directions[:, 0] * delta[..., 1] - directions[:, 1] * delta[..., 0])
+        along = np.sum(directions * delta, axis=-1)
         return np.flatnonzero((across <= radius) & (along >= -radius))
 
 
@@ -187,3 +194,74 @@ def carve(low: np.ndarray, high: np.ndarray, seen_low: np.ndarray, seen_high: np
         if not changed:
             break
     return low, high
+
+
+FACE_POINTS, FACE_ALIGNMENT, FACE_STEP_SINE = 5, np.cos(np.deg2rad(20.0)), np.sin(np.deg2rad(20.0))
+FACE_NOISE_FLOOR, FACE_SLACK_STDS = 0.2, 1.0
+"""face_end_limit: the face's line is fitted to at most FACE_POINTS returns next to the
+cluster end, every step between them within 20 deg of it (a corner among them is no line),
+and it must run within 20 deg of one of the box's axes; the std of the returns about it is
+taken as at least FACE_NOISE_FLOOR x the tolerance."""
+
+
+def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, free: float,
+                   tolerance: float) -> Optional[tuple[int, int, float]]:
+    """Where a face seen up to a cluster end must end, from the next beam: (axis k, side
+    (1: the high end, 0: the low), limit [m]) or None when that beam tells nothing.
+
+    face (m, 2), m >= 3: the cluster's returns next to its end, the end's last (object frame);
+    the beam past the end: origin (2,), unit direction (2,), free length [m] (ending before its
+    return).  The face's line is fitted (least squares) to the longest run of these returns,
+    from the end, that lies within `tolerance` [m] of it with every step within 20 deg of it
+    (at least 3 returns); the beam crosses that
+    line at c and passes it free by more than `tolerance` across the line (free > t_c +
+    tolerance / sin(angle to the line): a return from the face itself, noisy, can lie a little
+    beyond its line): the face, running along axis k, ends before c, plus 1 std of c along
+    the line (the fitted line's std across it at c, from the returns' residuals, over the sine
+    of the beam's angle to it).  Also None when the run is shorter than 2 tolerances (returns
+    a centimetre apart on a near face give no direction) or c lies farther beyond its end
+    than the run is long.
+    A beam at a grazing angle to the face still bounds it, and from the returns' own line,
+    not the box's heading (a heading a degree off moves a crossing at 10 deg by 0.1 m per
+    metre of width).  None: fewer than 3 collinear returns, the line more than 20 deg from
+    both axes, the beam parallel to it, crossing it behind the origin, or stopped before it."""
+    face = np.asarray(face, float)
+    direction = np.asarray(direction, float)
+    if len(face) < 3 or not np.all(np.isfinite(direction)) or np.isnan(free):
+        return None
+    line = None
+    for count in range(min(len(face), FACE_POINTS), 2, -1):
+        run = face[-count:]
+        centre = run.mean(axis=0)
+        _, _, axes = np.linalg.svd(run - centre)
+        normal = axes[1]
+        steps = np.diff(run, axis=0)
+        lengths = np.hypot(steps[:, 0], steps[:, 1])
+        residuals = (run - centre) @ normal
+        if np.max(np.abs(residuals)) <= tolerance and np.all(
+                np.abs(steps @ normal) <= FACE_STEP_SINE * lengths):
+            line = (centre, axes[0], normal, (run - centre) @ axes[0],
+                    max(float(np.sqrt(residuals @ residuals / (count - 2))),
+                        FACE_NOISE_FLOOR * tolerance))
+            break
+    if line is None:
+        return None
+    centre, along, normal, spread, noise = line
+    k = int(np.argmax(np.abs(along)))
+    if abs(along[k]) < FACE_ALIGNMENT:
+        return None
+    towards = float(direction @ normal)
+    if abs(towards) < 1e-9:
+        return None
+    crossing = float((centre - origin) @ normal) / towards
+    if crossing <= 0 or free <= crossing + tolerance / abs(towards):
+        return None
+    point = origin + crossing * direction
+    side = int(face[-1, k] > centre[k])
+    offset = float((point - centre) @ along)  # the line's std across at c, over the sine
+    extent = float(np.ptp(spread))
+    if extent < 2 * tolerance or abs(offset) - extent / 2 > extent:
+        return None  # too short a run to give a direction, or c farther than it is long
+    slack = FACE_SLACK_STDS * noise * np.sqrt(1.0 / len(spread) + offset ** 2 / (spread @ spread)) \
+        / abs(towards)
+    return k, side, float(point[k] + (slack if side else -slack) * abs(along[k]))

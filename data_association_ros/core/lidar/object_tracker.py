@@ -63,7 +63,7 @@ from ..types import Landmarks, Observations
 from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigid_correction)
 from .clustering import cluster_consecutive, cluster_ends, on_face
 from .fine import boundary_covariance, match
-from .free_space import beams, blocked_share, carve, near
+from .free_space import FACE_POINTS, beams, blocked_share, carve, face_end_limit, near
 from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
                           turning_prediction)
 from .parameters import TrackerConfig
@@ -175,13 +175,18 @@ class LidarObjectTracker:
 
     def step(self, points: np.ndarray, time: float, sensor: Optional[np.ndarray] = None,
              offsets: Optional[np.ndarray] = None,
-             directions: Optional[np.ndarray] = None) -> list[ObjectTrack]:
+             directions: Optional[np.ndarray] = None,
+             max_range: Optional[float] = None,
+             origins: Optional[np.ndarray] = None) -> list[ObjectTrack]:
         """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
         tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
         [s] after `time` (default 0; an object's points are moved back by its predicted
         velocity times their offset), a beam without a return along the unit vector
         directions[k] (K, 2) (default: free_space.beam_directions; NaN: unknown, it tells
-        nothing; a beam with a return runs from the sensor to its point).
+        nothing; a beam with a return runs from the sensor to its point), the sensor's
+        range_max `max_range` [m] (None: unknown; a beam without a return is then free up to
+        the scan's farthest return only, free_space.beams), origins (K, 2): where the sensor
+        was when it took beam k (a moving sensor; default: `sensor` for every beam).
         Raises InvalidInputError when time is not after the previous scan's.  Returns the
         reported tracks."""
         if not np.isfinite(time) or (self.time is not None and time <= self.time):
@@ -199,7 +204,9 @@ class LidarObjectTracker:
             if directions.shape != points.shape:
                 raise InvalidInputError(f'directions: shape {directions.shape} is not the '
                                         f'points\' {points.shape}')
-        self._rays = beams(points, self.sensor, directions, self._margin)
+        self._origins = np.broadcast_to(self.sensor, points.shape) if origins is None else \
+            np.asarray(origins, float).reshape(points.shape)
+        self._rays = beams(points, self._origins, directions, self._margin, max_range)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
                                      FACE_SIGMAS * config.point_sigma)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
@@ -283,8 +290,8 @@ class LidarObjectTracker:
         moves = np.zeros((len(free), 2)) if velocity is None else \
             self._offsets[:, None] * velocity
         reach = float(np.hypot(*half)) + float(np.max(np.hypot(*moves.T), initial=0.0))
-        rays = near(self.sensor, directions, x[:2], reach)
-        return ((self.sensor - x[:2] - moves[rays]) @ r, directions[rays] @ r, free[rays],
+        rays = near(self._origins, directions, x[:2], reach)
+        return ((self._origins[rays] - x[:2] - moves[rays]) @ r, directions[rays] @ r, free[rays],
                 returned[rays])
 
     def _drop_duplicates(self, time: float) -> None:
@@ -443,7 +450,8 @@ class LidarObjectTracker:
             x[:3] = [centre[0], centre[1], yaw]
             track.length, track.width = length, width
         x[2] = wrap_angle(x[2])
-        self._grow(track, track.matched, scan, compensation)
+        self._grow(track, track.matched, scan, compensation,
+                   self._face_ends(points, labels, clusters, ends))
         return True
 
     def _correction(self, track: ObjectTrack, sample: np.ndarray, boundary: np.ndarray,
@@ -460,11 +468,30 @@ class LidarObjectTracker:
         return rigid_correction(sample, boundary, pairs, x[:2], config.transform == 'ransac',
                                 config.ransac_threshold)
 
+    def _face_ends(self, points: np.ndarray, labels: np.ndarray, clusters: list,
+                   ends: np.ndarray) -> list[tuple[np.ndarray, int]]:
+        """(the returns next to a cluster end (m, 2), the end's last; the beam index past
+        it) for each end of the track's clusters whose next beam is in the scan and is not
+        one of the track's own clusters (face_end_limit's inputs)."""
+        result = []
+        for cluster in clusters:
+            first, last = ends[cluster]
+            member = np.flatnonzero(labels == cluster)
+            if len(member) < 3:
+                continue
+            for outer, face in ((first - 1, member[:FACE_POINTS][::-1]),
+                                (last + 1, member[-FACE_POINTS:])):
+                if 0 <= outer < len(labels) and labels[outer] not in clusters:
+                    result.append((points[face], int(outer)))
+        return result
+
     def _grow(self, track: ObjectTrack, matched: np.ndarray, scan: np.ndarray,
-              compensation: np.ndarray) -> None:
+              compensation: np.ndarray, face_ends: list[tuple[np.ndarray, int]]) -> None:
         """Step 6: contain the matched points, then cut back what beams pass through
         (free_space.carve; the beams moved back with `compensation` (2,), the velocity the
-        scan points were moved back with); the anchor becomes this scan's centroid."""
+        scan points were moved back with) and where the beam past a face's end crosses its
+        line (free_space.face_end_limit, `face_ends` from _face_ends); the anchor becomes this
+        scan's centroid."""
         x = track.filter.x
         r = rotation(x[2])
         body = (matched - x[:2]) @ r
@@ -473,12 +500,25 @@ class LidarObjectTracker:
                                                    2 * self.config.point_sigma)
         x[:2] = x[:2] + r @ shift
         body = (scan - x[:2]) @ r
+        seen_low, seen_high = body.min(axis=0), body.max(axis=0)
         half = np.array([track.length, track.width]) / 2
         origins, directions, free, returned = self._body_rays(track, half, compensation)
-        low, high = carve(-half, half, body.min(axis=0), body.max(axis=0), origins, directions,
-                          free, min_depth=self._margin, share=CARVE_SHARE,
+        low, high = carve(-half, half, seen_low, seen_high, origins, directions, free,
+                          min_depth=self._margin, share=CARVE_SHARE,
                           min_sine=np.sin(CARVE_ANGLE), returned=returned,
                           margin=self._margin)
+        beam_directions, beam_free, _ = self._rays
+        for face, outer in face_ends:
+            origin = self._origins[outer] - self._offsets[outer] * compensation
+            found = face_end_limit((face - x[:2]) @ r, (origin - x[:2]) @ r,
+                                   beam_directions[outer] @ r, beam_free[outer],
+                                   self.config.point_sigma)
+            if found is not None:
+                k, side, limit = found
+                if side:
+                    high[k] = max(min(high[k], limit), seen_high[k])
+                else:
+                    low[k] = min(max(low[k], limit), seen_low[k])
         track.length, track.width = high - low
         x[:2] = x[:2] + r @ ((low + high) / 2)
         track.anchor = (scan.mean(axis=0) - x[:2]) @ r
