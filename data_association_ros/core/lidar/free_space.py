@@ -62,8 +62,9 @@ def beams(points: np.ndarray, sensor: np.ndarray, directions: Optional[np.ndarra
           margin: float, max_range: Optional[float] = None
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(unit directions (K, 2), free lengths (K,), returned (K,) bool) of a scan's beams from
-    `sensor` (2,) (or each beam from its own origin, (K, 2)): towards the point (or directions[k] where given, NaN unknown; by default
-    beam_directions of the points seen from the sensor), free up to `margin` [m] before the
+    `sensor` (2,) (or each beam from its own origin, (K, 2)): towards the point (or
+    directions[k] where given, NaN unknown; by default beam_directions of the points seen
+    from the sensor), free up to `margin` [m] before the
     return; a beam without one is free up to `margin` before the farthest return of the scan
     or RANGE_SHARE x the sensor's `max_range` [m] (its range_max), whichever is farther (no
     return can mean out of range: the sensor reaches at least that far; returns near the end
