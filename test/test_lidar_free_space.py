@@ -92,6 +92,12 @@ def test_face_end_limit_needs_a_beam_that_passes_the_line():
     assert face_end_limit(SIDE[-2:], origin, direction, 40.0, 0.1) is None  # two returns
     turned = SIDE @ np.array([[np.cos(0.6), np.sin(0.6)], [-np.sin(0.6), np.cos(0.6)]])
     assert face_end_limit(turned, origin, direction, 40.0, 0.1) is None  # 34 deg off both axes
+    # car_static seed 303 object 1, scan 59: the rear face's returns, then the side's first
+    # (a run over the corner, 18 deg off the length axis): cut the 4.3 m length to 0.35 m
+    corner = np.array([[-2.184, 0.636], [-2.186, 0.678], [-2.197, 0.721], [-2.136, 0.763],
+                       [-1.971, 0.807]])
+    assert face_end_limit(corner, np.array([-11.87, 0.74]), np.array([1.0, 0.011]) / np.hypot(
+        1.0, 0.011), 11.58, 0.05) is None
 
 
 def test_face_end_limit_fits_the_returns_next_to_the_end():

@@ -197,12 +197,13 @@ def carve(low: np.ndarray, high: np.ndarray, seen_low: np.ndarray, seen_high: np
     return low, high
 
 
-FACE_POINTS, FACE_ALIGNMENT, FACE_STEP_SINE = 5, np.cos(np.deg2rad(20.0)), np.sin(np.deg2rad(20.0))
+FACE_POINTS, FACE_STEP_SINE, FACE_ALIGNMENT = 5, np.sin(np.deg2rad(20.0)), np.cos(np.deg2rad(10.0))
 FACE_NOISE_FLOOR, FACE_SLACK_STDS = 0.2, 1.0
 """face_end_limit: the face's line is fitted to at most FACE_POINTS returns next to the
 cluster end, every step between them within 20 deg of it (a corner among them is no line),
-and it must run within 20 deg of one of the box's axes; the std of the returns about it is
-taken as at least FACE_NOISE_FLOOR x the tolerance."""
+and it must run within 10 deg of one of the box's axes (a run over a corner, the rear face's
+last returns and the side's first, is no face of the box); the std of the returns about it
+is taken as at least FACE_NOISE_FLOOR x the tolerance."""
 
 
 def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, free: float,
@@ -224,7 +225,7 @@ def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, 
     than the run is long.
     A beam at a grazing angle to the face still bounds it, and from the returns' own line,
     not the box's heading (a heading a degree off moves a crossing at 10 deg by 0.1 m per
-    metre of width).  None: fewer than 3 collinear returns, the line more than 20 deg from
+    metre of width).  None: fewer than 3 collinear returns, the line more than 10 deg from
     both axes, the beam parallel to it, crossing it behind the origin, or stopped before it."""
     face = np.asarray(face, float)
     direction = np.asarray(direction, float)
