@@ -98,6 +98,12 @@ def test_face_end_limit_needs_a_beam_that_passes_the_line():
                        [-1.971, 0.807]])
     assert face_end_limit(corner, np.array([-11.87, 0.74]), np.array([1.0, 0.011]) / np.hypot(
         1.0, 0.011), 11.58, 0.05) is None
+    # f1tenth_moving seed 103 object 1, scan 97: the same at 1/10 scale, 10 deg off the axis
+    # (the kink: steps of 3.6 cm then 11.5 cm), cut the 0.61 m length to 0.28 m
+    small = np.array([[-0.302, -0.087], [-0.31, -0.107], [-0.316, -0.127], [-0.284, -0.144],
+                      [-0.17, -0.155]])
+    assert face_end_limit(small, np.array([-4.74, -0.48]), np.array([0.998, 0.066]) / np.hypot(
+        0.998, 0.066), 9.7, 0.05) is None
 
 
 def test_face_end_limit_fits_the_returns_next_to_the_end():

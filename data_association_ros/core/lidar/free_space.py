@@ -14,6 +14,8 @@ from typing import Optional
 
 import numpy as np
 
+from .clustering import FACE_STEPS
+
 RANGE_SHARE = 0.95
 """beams: a beam without a return is free up to this share of the sensor's range_max."""
 LINEAR_TOLERANCE = 0.1
@@ -200,7 +202,9 @@ def carve(low: np.ndarray, high: np.ndarray, seen_low: np.ndarray, seen_high: np
 FACE_POINTS, FACE_STEP_SINE, FACE_ALIGNMENT = 5, np.sin(np.deg2rad(20.0)), np.cos(np.deg2rad(10.0))
 FACE_NOISE_FLOOR, FACE_SLACK_STDS = 0.2, 1.0
 """face_end_limit: the face's line is fitted to at most FACE_POINTS returns next to the
-cluster end, every step between them within 20 deg of it (a corner among them is no line),
+cluster end, every step between them within 20 deg of it and 0.5-2 times the one before
+(clustering.FACE_STEPS: the spacing along one face changes slowly; a corner among them is no
+line),
 and it must run within 10 deg of one of the box's axes (a run over a corner, the rear face's
 last returns and the side's first, is no face of the box); the std of the returns about it
 is taken as at least FACE_NOISE_FLOOR x the tolerance."""
@@ -215,7 +219,7 @@ def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, 
     the beam past the end: origin (2,), unit direction (2,), free length [m] (ending before its
     return).  The face's line is fitted (least squares) to the longest run of these returns,
     from the end, that lies within `tolerance` [m] of it with every step within 20 deg of it
-    (at least 3 returns); the beam crosses that
+    and 0.5-2 times the step before (at least 3 returns); the beam crosses that
     line at c and passes it free by more than `tolerance` across the line (free > t_c +
     tolerance / sin(angle to the line): a return from the face itself, noisy, can lie a little
     beyond its line): the face, running along axis k, ends before c, plus 1 std of c along
@@ -240,8 +244,10 @@ def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, 
         steps = np.diff(run, axis=0)
         lengths = np.hypot(steps[:, 0], steps[:, 1])
         residuals = (run - centre) @ normal
+        ratios = lengths[1:] / np.maximum(lengths[:-1], 1e-12)
         if np.max(np.abs(residuals)) <= tolerance and np.all(
-                np.abs(steps @ normal) <= FACE_STEP_SINE * lengths):
+                np.abs(steps @ normal) <= FACE_STEP_SINE * lengths) and np.all(
+                (ratios >= FACE_STEPS[0]) & (ratios <= FACE_STEPS[1])):
             line = (centre, axes[0], normal, (run - centre) @ axes[0],
                     max(float(np.sqrt(residuals @ residuals / (count - 2))),
                         FACE_NOISE_FLOOR * tolerance))
