@@ -5,11 +5,13 @@ row_step padding, height > 1 and big-endian data; rejects count != 1.  No per-po
 """
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 from typing import Mapping, Sequence, Union
 
 import numpy as np
 from sensor_msgs.msg import PointCloud2, PointField
+from std_msgs.msg import Header
 
 
 class PointCloudFormatError(ValueError):
@@ -87,12 +89,10 @@ def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     if len(data) != expected:
         raise PointCloudFormatError(f'data has {len(data)} bytes, expected {expected} '
                                     f'(height {msg.height} * row_step {row_step})')
-    buffer = np.frombuffer(data, dtype=np.uint8)
-    if row_step != msg.width * point_step:
-        buffer = buffer.reshape(msg.height, row_step)[:, :msg.width * point_step].copy()
-    points = np.frombuffer(buffer.tobytes() if not buffer.flags.c_contiguous else buffer,
-                           dtype=dtype, count=count)
-    return points.astype(_native(dtype))
+    if row_step != msg.width * point_step:   # drop each row's padding
+        data = np.frombuffer(data, dtype=np.uint8).reshape(
+            msg.height, row_step)[:, :msg.width * point_step].copy()
+    return np.frombuffer(data, dtype=dtype, count=count).astype(_native(dtype))
 
 
 @lru_cache(maxsize=256)
@@ -115,7 +115,7 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         for name, values in columns.items():
             structured[name] = values
         array = structured
-    packed_dtype, fields = _packed_layout(array.dtype)
+    packed_dtype, fields, float_runs = _packed_layout(array.dtype)
     if array.dtype == packed_dtype:
         packed = array
     else:
@@ -124,32 +124,46 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         packed = np.empty(len(array), dtype=packed_dtype)
         for name in array.dtype.names:
             packed[name] = array[name]
-    msg = PointCloud2(height=1, width=len(array), is_bigendian=False,
-                      point_step=packed_dtype.itemsize,
-                      row_step=packed_dtype.itemsize * len(array),
-                      is_dense=not any(np.isnan(packed[name]).any()
-                                       for name in packed_dtype.names
-                                       if packed_dtype.fields[name][0].kind == 'f'))
-    msg.fields = [PointField(name=name, offset=offset, count=1, datatype=datatype)
-                  for name, offset, datatype in fields]
-    if header is not None:
-        msg.header = header
-    msg.data = packed.tobytes()
-    return msg
+    data = packed.tobytes()
+    return PointCloud2(
+        header=Header() if header is None else header, height=1, width=len(array),
+        is_bigendian=False, point_step=packed_dtype.itemsize,
+        row_step=packed_dtype.itemsize * len(array), data=data,
+        is_dense=not _has_nan(data, len(array), packed_dtype.itemsize, float_runs),
+        fields=[PointField(name=name, offset=offset, count=1, datatype=datatype)
+                for name, offset, datatype in fields])
+
+
+def _has_nan(data: bytes, count: int, point_step: int,
+             float_runs: tuple[tuple[int, np.dtype, int], ...]) -> bool:
+    """True when a float field of the `count` packed points in `data` holds NaN; float_runs:
+    (offset, dtype, number of fields) of each run of adjacent float fields of one dtype."""
+    return count > 0 and any(  # the largest value is NaN when any is (inf is not NaN)
+        math.isnan(np.maximum.reduce(np.ndarray((count, width), dtype, data, offset,
+                                                (point_step, dtype.itemsize)), axis=None))
+        for offset, dtype, width in float_runs)
 
 
 @lru_cache(maxsize=128)
-def _packed_layout(dtype: np.dtype) -> tuple[np.dtype, tuple[tuple[str, int, int], ...]]:
-    """(packed little-endian dtype, its fields as (name, offset, PointField datatype)) of a
+def _packed_layout(dtype: np.dtype) -> tuple[np.dtype, tuple[tuple[str, int, int], ...],
+                                             tuple[tuple[int, np.dtype, int], ...]]:
+    """(packed little-endian dtype, its fields as (name, offset, PointField datatype), its
+    runs of adjacent float fields of one dtype as (offset, dtype, number of fields)) of a
     structured dtype."""
-    formats, fields, offset = [], [], 0
+    formats, fields, runs, offset = [], [], [], 0
     for name in dtype.names:
         field = np.dtype(dtype.fields[name][0])
         packed = _field_dtype(name, np.zeros(0, dtype=field))
         formats.append((name, packed))
         fields.append((name, offset, _DATATYPE_OF[(packed.kind, packed.itemsize)]))
+        if packed.kind == 'f':
+            if runs and runs[-1][1] == packed and \
+                    runs[-1][0] + runs[-1][2] * packed.itemsize == offset:
+                runs[-1] = (runs[-1][0], packed, runs[-1][2] + 1)
+            else:
+                runs.append((offset, packed, 1))
         offset += packed.itemsize
-    return np.dtype(formats), tuple(fields)
+    return np.dtype(formats), tuple(fields), tuple(runs)
 
 
 def _field_dtype(name: str, values: np.ndarray) -> np.dtype:

@@ -16,7 +16,7 @@ scans.  confirm_hits = 1 confirms every NEW observation at once and keeps no sta
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -59,10 +59,10 @@ class Candidate:
         self.covariance = 0.5 * (fused + fused.T)
 
 
-@dataclass(frozen=True)
-class ConfirmedLandmark:
+class ConfirmedLandmark(NamedTuple):
     """A candidate that passed confirmation: its fused estimate, the observations that made it
-    ((stamp ns, index), oldest first) and the scans from its first observation to now."""
+    ((stamp ns, index), oldest first) and the scans from its first observation to now (an
+    immutable record, a named tuple: made for every NEW observation of every scan)."""
 
     candidate: int
     mean: np.ndarray
@@ -126,16 +126,10 @@ class CandidateManager:
         (M, d, d) or None, their indices in the message (M,); model 'box' for boxes;
         euclidean: gate by distance (the association was euclidean_nn)."""
         self.scan += 1
+        if self.confirm_hits == 1:
+            return self._confirm_all(positions, covariances, stamp_ns, indices)
         positions = np.asarray(positions, dtype=float)
         indices = np.asarray(indices, dtype=np.int64)
-        if self.confirm_hits == 1:
-            self.tracked.clear()
-            confirmed = tuple(ConfirmedLandmark(
-                self._new_id(), positions[r].copy(),
-                None if covariances is None else covariances[r].copy(),
-                ((stamp_ns, int(indices[r])),), 0) for r in range(len(positions)))
-            self.confirmed_total += len(confirmed)
-            return CandidateUpdate(confirmed, ())
         match = self._match(positions, covariances, model, euclidean)
         for row, column in enumerate(match):
             covariance = None if covariances is None else covariances[row]
@@ -167,6 +161,22 @@ class CandidateManager:
         self.confirmed_total += len(confirmed)
         self.expired_total += len(expired)
         return CandidateUpdate(tuple(confirmed), tuple(expired))
+
+    def _confirm_all(self, positions: np.ndarray, covariances: Optional[np.ndarray],
+                     stamp_ns: int, indices: np.ndarray) -> CandidateUpdate:
+        """confirm_hits 1: every observation is a landmark at once (ids in order; each mean and
+        covariance a row of this call's own copy)."""
+        self.tracked.clear()
+        positions = np.array(positions, dtype=float)
+        covariances = None if covariances is None else np.array(covariances, dtype=float)
+        first = self._next_id
+        self._next_id += len(positions)
+        confirmed = tuple(ConfirmedLandmark(
+            first + row, positions[row], None if covariances is None else covariances[row],
+            ((stamp_ns, index),), 0)
+            for row, index in enumerate(np.asarray(indices, dtype=np.int64).tolist()))
+        self.confirmed_total += len(confirmed)
+        return CandidateUpdate(confirmed, ())
 
     def _new_id(self) -> int:
         self._next_id += 1

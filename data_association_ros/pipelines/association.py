@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import lru_cache
+from operator import itemgetter
 from typing import AbstractSet, Any, Callable, Optional
 
 import numpy as np
@@ -60,6 +62,17 @@ class StampedCovariance:
     matrix: np.ndarray
 
 
+CANDIDATE_SETTINGS = itemgetter('confirm_hits', 'confirm_window', 'candidate_max_misses',
+                                'gate_probability', 'euclidean_gate', 'iou_threshold')
+"""The values of CandidateManager.configure's parameters in a config, in its order."""
+
+
+@lru_cache(maxsize=16, typed=True)
+def pose_recovery(position_std: float, yaw_std: float, min_new: int) -> PoseRecovery:
+    """The (immutable) PoseRecovery of these settings, built once."""
+    return PoseRecovery(position_std, yaw_std, min_new)
+
+
 OPTIONAL_OUTPUTS = frozenset({'new_landmarks', 'landmark_candidates', 'association_markers'})
 """Outputs built only when wanted (AssociationPipeline.answer), by their topic names."""
 
@@ -92,6 +105,7 @@ class AssociationPipeline:
         self.pose_history: StampedBuffer = StampedBuffer(200)
         self.covariance_history: StampedBuffer[StampedCovariance] = StampedBuffer(50)
         self.candidates = CandidateManager()
+        self._candidate_settings: tuple = ()   # the values of CANDIDATE_SETTINGS in force
         self.odometry_history: StampedBuffer = StampedBuffer(200)
         self.multi_hypothesis = MultiHypothesisStage()
 
@@ -195,6 +209,8 @@ class AssociationPipeline:
             return False
         try:
             stamp = stamp_ns(msg.header)
+            if newest >= stamp - int(self.config['pose_tolerance'] * NS_PER_S):
+                return False    # it has come
             if not multi_hypothesis and self.config['measurement_model'] == 'auto':
                 landmarks, _ = self.landmark_history.latest_not_after(stamp, 2 ** 62)
                 names = {field.name for field in msg.fields}
@@ -203,7 +219,7 @@ class AssociationPipeline:
                     return False    # a map-frame model needs no pose
         except (AttributeError, TypeError, ValueError, InvalidInputError):
             return False
-        return newest < stamp - int(self.config['pose_tolerance'] * NS_PER_S)
+        return True
 
     def _map_for(self, stamp: int, config: dict[str, Any]
                  ) -> tuple[Optional[StampedLandmarks], str]:
@@ -275,17 +291,18 @@ class AssociationPipeline:
         state_covariance = self._joint_covariance(item)
         result = associate_with_pose_recovery(
             landmarks, observations, config['algorithm'], pose, state_covariance,
-            PoseRecovery(config['recovery_position_std'], config['recovery_yaw_std'],
-                         config['recovery_min_new']),
+            pose_recovery(config['recovery_position_std'], config['recovery_yaw_std'],
+                          config['recovery_min_new']),
             spatial_index=True if too_many_pairs else None, **algorithm_arguments(config))
-        positions, covariances = observations_in_map(observations, pose)
-        if pose is not None and not config['candidate_pose_uncertainty']:
-            # the observation noise alone: a SLAM's pose error is common to consecutive scans
-            # and would only widen every candidate gate (ttk4250 with 20 clutter returns per
-            # scan: 66 false landmarks confirmed 3 scans in a row with it, 5 without)
-            _, covariances = observations_in_map(observations, RobotPose(pose.mean))
-        map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id)
+        # candidate_pose_uncertainty false: the observation noise alone (a SLAM's pose error is
+        # common to consecutive scans and would only widen every candidate gate; ttk4250 with
+        # 20 clutter returns per scan: 66 false landmarks confirmed 3 scans in a row with it,
+        # 5 without)
+        positions, covariances = observations_in_map(observations, pose,
+                                                     config['candidate_pose_uncertainty'])
         update = self._confirm(config, result, positions, covariances, stamp, model)
+        map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id) \
+            if wanted else None
         answer = Answer(
             correspondences=correspondences_cloud(msg.header, result, positions),
             new_landmarks=new_landmarks_cloud(map_header, update.confirmed)
@@ -334,10 +351,11 @@ class AssociationPipeline:
     def _confirm(self, config: dict[str, Any], result: Association, positions: np.ndarray,
                  covariances: Optional[np.ndarray], stamp: int, model: str) -> CandidateUpdate:
         """Feed the NEW observations (map frame) to the candidate landmarks."""
-        self.candidates.configure(config['confirm_hits'], config['confirm_window'],
-                                  config['candidate_max_misses'], config['gate_probability'],
-                                  config['euclidean_gate'], config['iou_threshold'])
-        new = np.flatnonzero(result.assignment == NEW)
+        settings = CANDIDATE_SETTINGS(config)
+        if settings != self._candidate_settings:
+            self.candidates.configure(*settings)
+            self._candidate_settings = settings
+        new = (result.assignment == NEW).nonzero()[0]
         try:
             return self.candidates.update(
                 positions[new], None if covariances is None else covariances[new], stamp, new,

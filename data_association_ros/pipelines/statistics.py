@@ -48,9 +48,11 @@ class AssociationStatistics(WarningThrottle):
                       pose_recovered: bool = False) -> None:
         """One observation message answered (pose_recovered: by the widened second pass)."""
         self.answered += 1
-        self.outcomes['paired'] += int((assignment >= 0).sum())
-        self.outcomes['new'] += int((assignment == NEW).sum())
-        self.outcomes['unassociated'] += int((assignment == UNASSOCIATED).sum())
+        values = assignment.tolist()   # landmark ids (>= 0), NEW or UNASSOCIATED
+        new, unassociated = values.count(NEW), values.count(UNASSOCIATED)
+        self.outcomes['paired'] += len(values) - new - unassociated
+        self.outcomes['new'] += new
+        self.outcomes['unassociated'] += unassociated
         self.truncated += int(truncated)
         self.pose_recoveries += int(pose_recovered)
         self.latency_last_ms = latency_ms

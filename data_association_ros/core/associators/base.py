@@ -65,27 +65,38 @@ def nearest_neighbours(cost: np.ndarray, gated: np.ndarray, one_to_one: bool) ->
     return chosen
 
 
-def label(problem: AssociationProblem, columns: np.ndarray, gated: np.ndarray,
-          unmatched: int | None = None) -> np.ndarray:
-    """Landmark ids for the chosen columns (K,); an unpaired row is UNASSOCIATED when it is inside
-    some gate, else NEW (or `unmatched` for every unpaired row when given)."""
-    ids = problem.landmarks.ids
-    assignment = np.where(columns >= 0, ids[np.maximum(columns, 0)] if len(ids) else NEW, NEW)
-    unpaired = columns < 0
-    if unmatched is not None:
-        assignment[unpaired] = unmatched
-    else:
-        inside = gated.any(axis=1) if gated.shape[1] else np.zeros(len(columns), dtype=bool)
-        assignment[unpaired & inside] = UNASSOCIATED
-    return assignment.astype(np.int64)
+def nearest_within(cost: np.ndarray, bound: float) -> tuple[np.ndarray, np.ndarray]:
+    """(column of the cheapest landmark per row (K,) where that cost is at most `bound`, else
+    NO_LANDMARK; those rows (K,) bool): nearest_neighbours(cost, cost <= bound, False) in one
+    pass over the (K, N) costs, for costs without NaN."""
+    k, n = cost.shape
+    if n == 0:
+        return np.full(k, NO_LANDMARK, dtype=np.intp), np.zeros(k, dtype=bool)
+    best = cost.argmin(axis=1)
+    inside = cost[np.arange(k), best] <= bound
+    return np.where(inside, best, NO_LANDMARK), inside
+
+
+def label(problem: AssociationProblem, rows: np.ndarray, columns: np.ndarray,
+          gated: np.ndarray, unmatched: int | None = None) -> np.ndarray:
+    """Landmark ids (K,) with the rows (P,) paired to the landmark columns (P,); an unpaired row
+    is UNASSOCIATED when it is inside some gate (gated: (K, N) pairs inside the gates, or (K,)
+    rows inside some gate), else NEW (or `unmatched` for every unpaired row when given)."""
+    assignment = np.full(len(gated), NEW if unmatched is None else unmatched, dtype=np.int64)
+    if unmatched is None and gated.size:
+        assignment[gated if gated.ndim == 1 else gated.any(axis=1)] = UNASSOCIATED
+    assignment[rows] = problem.landmarks.ids[columns]
+    return assignment
 
 
 def result(problem: AssociationProblem, name: str, columns: np.ndarray, gated: np.ndarray,
            unmatched: int | None = None, **extras) -> Association:
-    """The Association for chosen columns, with the individual NIS of each chosen pair."""
+    """The Association for the chosen column of each row (K,) (gated as for `label`), with the
+    individual NIS of each chosen pair."""
+    rows = np.flatnonzero(columns >= 0)
+    chosen = columns[rows]
     nis = np.full(len(columns), np.nan)
     if problem.has_covariances:
-        paired = np.flatnonzero(columns >= 0)
-        nis[paired] = problem.nis[paired, columns[paired]]
-    return Association(assignment=label(problem, columns, gated, unmatched), nis=nis,
-                       algorithm=name, extras=dict(extras))
+        nis[rows] = problem.nis[rows, chosen]
+    return Association(assignment=label(problem, rows, chosen, gated, unmatched), nis=nis,
+                       algorithm=name, extras=extras)
