@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from operator import attrgetter
 from typing import Mapping, Sequence, Union
 
 import numpy as np
@@ -27,13 +28,15 @@ POINTFIELD_DTYPES = {
 """PointField datatype constant -> numpy dtype (native byte order)."""
 _DATATYPE_OF = {(dtype.kind, dtype.itemsize): datatype
                 for datatype, dtype in POINTFIELD_DTYPES.items()}
+_FIELD_LAYOUT = attrgetter('name', 'offset', 'datatype', 'count')
+"""(name, offset, datatype, count) of a PointField."""
 
 
 def cloud_dtype(fields: Sequence[PointField], point_step: int, is_bigendian: bool) -> np.dtype:
     """Structured dtype of one point: the fields at their offsets, itemsize point_step (cached
     by layout: a sensor sends the same one every message)."""
-    return _cloud_dtype(tuple((field.name, field.offset, field.datatype, field.count)
-                              for field in fields), point_step, bool(is_bigendian))
+    return _cloud_dtype(tuple(map(_FIELD_LAYOUT, fields)), point_step, bool(is_bigendian))
+
 
 
 @lru_cache(maxsize=256)

@@ -389,7 +389,7 @@ class AssociationProblem:
         prediction, covariances, nis = kernels.run_range_bearing_nis(
             self.landmarks.means, self.pose.mean, self._pose_covariance(),
             self.landmarks.covariances, self.state_covariance, self.observations.values,
-            self.observations.covariances, self._one_noise, self.min_innovation_variance)
+            self.observations.covariances, self.min_innovation_variance)
         self.__dict__.update(_prediction=prediction, prediction_covariances=covariances)
         return nis
 

@@ -188,15 +188,27 @@ def nis_2d(values, predictions, angular, prediction_covariances, r, shared, floo
 
 
 @njit
+def _all_equal(matrices):
+    """True when every matrix of the stack (K, m, m) equals the first (problem._one_noise)."""
+    for k in range(1, matrices.shape[0]):
+        for a in range(matrices.shape[1]):
+            for b in range(matrices.shape[2]):
+                if matrices[k, a, b] != matrices[0, a, b]:
+                    return False
+    return True
+
+
+@njit
 def range_bearing_nis(means, pose, pose_covariance, landmark_covariances, state, values,
-                      angular, r, shared, floor, h, h_landmark, h_pose, prediction_covs, out):
-    """range_bearing_predict, prediction_covariances and nis_2d in one call (one dispatch at a
-    scan instead of three): the predictions into h, h_landmark, h_pose, their covariances
-    into prediction_covs and the NIS of every pair into out."""
+                      angular, r, floor, h, h_landmark, h_pose, prediction_covs, out):
+    """range_bearing_predict, prediction_covariances and nis_2d (shared when every R is the
+    same) in one call, one dispatch at a scan instead of three: the predictions into h,
+    h_landmark, h_pose, their covariances into prediction_covs and the NIS of every pair into
+    out (K >= 1)."""
     range_bearing_predict(means, pose, h, h_landmark, h_pose)
     prediction_covariances(h_pose, h_landmark, pose_covariance, landmark_covariances, state,
                            prediction_covs)
-    nis_2d(values, h, angular, prediction_covs, r, shared, floor, out)
+    nis_2d(values, h, angular, prediction_covs, r, _all_equal(r), floor, out)
 
 
 @njit
@@ -291,7 +303,12 @@ def first_indefinite_block(state, n, d):
 
 
 def _read_only(array, dtype=np.float64) -> np.ndarray:
-    """A read-only C-contiguous view of `array` as `dtype` (a copy only when it is not one)."""
+    """`array` when it is a read-only C-contiguous `dtype` array (the core's types store theirs
+    so), else a read-only C-contiguous view of it as `dtype` (a copy only when it is not
+    C-contiguous `dtype`)."""
+    if type(array) is np.ndarray and array.dtype == dtype and not array.flags.writeable \
+            and array.flags.c_contiguous:
+        return array
     view = np.ascontiguousarray(array, dtype=dtype).view()
     view.flags.writeable = False
     return view
@@ -361,19 +378,19 @@ def _covariance_inputs(pose_covariance: np.ndarray, landmark_covariances: Option
 
 def run_range_bearing_nis(means: np.ndarray, pose: np.ndarray, pose_covariance: np.ndarray,
                           landmark_covariances: Optional[np.ndarray], state: Optional[np.ndarray],
-                          values: np.ndarray, r: np.ndarray, shared: bool, floor: float
+                          values: np.ndarray, r: np.ndarray, floor: float
                           ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray,
                                      np.ndarray]:
     """((h (N, 2), dh/dm (N, 2, 2), dh/dpose (N, 2, 3)), H P H^T (N, 2, 2), nis (K, N)) by
     range_bearing_nis for landmark means (N, 2), pose (3,), the covariances as for
-    run_prediction_covariances and observations (K, 2) with R (K, 2, 2) (shared: every R is
-    r[0]); floor <= 0: none."""
+    run_prediction_covariances and K >= 1 observations (K, 2) with R (K, 2, 2); floor <= 0:
+    none."""
     n = means.shape[0]
     prediction = np.empty((n, 2)), np.empty((n, 2, 2)), np.empty((n, 2, 3))
     covariances, nis = np.empty((n, 2, 2)), np.empty((values.shape[0], n))
     range_bearing_nis(_read_only(means), _read_only(pose),
                       *_covariance_inputs(pose_covariance, landmark_covariances, state, 2),
-                      _read_only(values), _angular_flags(2, (1,)), _read_only(r), bool(shared),
+                      _read_only(values), _angular_flags(2, (1,)), _read_only(r),
                       _floor(floor), *prediction, covariances, nis)
     return prediction, covariances, nis
 
@@ -456,7 +473,7 @@ def _warm_up() -> None:
             raise RuntimeError(f'nis_2d warm-up: {nis} instead of 0.5')
     prediction, covariances, fused = run_range_bearing_nis(
         np.array([[3.0, 4.0]]), np.array([0.0, 0.0, np.pi / 2]), np.eye(3) * 0.5, None,
-        np.eye(5) * 0.25, np.array([[5.0, 0.5]]), r, True, 0.0)
+        np.eye(5) * 0.25, np.array([[5.0, 0.5]]), r, 0.0)
     separate = run_nis_2d(np.array([[5.0, 0.5]]), h, (1,),
                           run_prediction_covariances(pose_jacobian, jacobian, np.zeros((3, 3)),
                                                      None, np.eye(5) * 0.25), r, True, 0.0)

@@ -65,35 +65,39 @@ def nearest_neighbours(cost: np.ndarray, gated: np.ndarray, one_to_one: bool) ->
     return chosen
 
 
-def nearest_within(cost: np.ndarray, bound: float) -> tuple[np.ndarray, np.ndarray]:
-    """(column of the cheapest landmark per row (K,) where that cost is at most `bound`, else
-    NO_LANDMARK; those rows (K,) bool): nearest_neighbours(cost, cost <= bound, False) in one
-    pass over the (K, N) costs, for costs without NaN."""
-    k, n = cost.shape
+def nearest_within(problem: AssociationProblem, name: str, bound: float) -> Association:
+    """Each observation paired with its smallest-NIS landmark where that NIS is at most `bound`,
+    else NEW: result(problem, name, nearest_neighbours(nis, nis <= bound, False), nis <= bound)
+    in seven array operations (the NIS holds no NaN, so the first smallest is the first smallest
+    gated one)."""
+    nis = problem.nis
+    k, n = nis.shape
     if n == 0:
-        return np.full(k, NO_LANDMARK, dtype=np.intp), np.zeros(k, dtype=bool)
-    best = cost.argmin(axis=1)
-    inside = cost[np.arange(k), best] <= bound
-    return np.where(inside, best, NO_LANDMARK), inside
+        return Association(np.full(k, NEW, dtype=np.int64), np.full(k, np.nan), name)
+    best = nis.argmin(axis=1)
+    smallest = nis[np.arange(k), best]
+    inside = smallest <= bound
+    return Association(assignment=np.where(inside, problem.landmarks.ids[best], NEW),
+                       nis=np.where(inside, smallest, np.nan), algorithm=name)
 
 
 def label(problem: AssociationProblem, rows: np.ndarray, columns: np.ndarray,
           gated: np.ndarray, unmatched: int | None = None) -> np.ndarray:
     """Landmark ids (K,) with the rows (P,) paired to the landmark columns (P,); an unpaired row
-    is UNASSOCIATED when it is inside some gate (gated: (K, N) pairs inside the gates, or (K,)
-    rows inside some gate), else NEW (or `unmatched` for every unpaired row when given)."""
+    is UNASSOCIATED when it is inside some gate (gated (K, N)), else NEW (or `unmatched` for
+    every unpaired row when given)."""
     assignment = np.full(len(gated), NEW if unmatched is None else unmatched, dtype=np.int64)
     if unmatched is None and gated.size:
-        assignment[gated if gated.ndim == 1 else gated.any(axis=1)] = UNASSOCIATED
+        assignment[gated.any(axis=1)] = UNASSOCIATED
     assignment[rows] = problem.landmarks.ids[columns]
     return assignment
 
 
 def result(problem: AssociationProblem, name: str, columns: np.ndarray, gated: np.ndarray,
            unmatched: int | None = None, **extras) -> Association:
-    """The Association for the chosen column of each row (K,) (gated as for `label`), with the
-    individual NIS of each chosen pair."""
-    rows = np.flatnonzero(columns >= 0)
+    """The Association for the chosen column of each row (K,) (NO_LANDMARK: none), with the
+    individual NIS of each chosen pair; gated (K, N) as for `label`."""
+    rows = (columns >= 0).nonzero()[0]
     chosen = columns[rows]
     nis = np.full(len(columns), np.nan)
     if problem.has_covariances:

@@ -6,12 +6,11 @@ from .base import Associator, nearest_neighbours, nearest_within, result
 
 def run(problem, gate_probability: float, min_innovation_variance: float, one_to_one: bool):
     """Greedy (or one-to-one greedy) NN on d2_ij; NEW when d2 > chi2(m, gate_probability)."""
-    nis = problem.nis
     bound = chi2_threshold(gate_probability, problem.observations.dim)
-    if not one_to_one:   # the gated rows are the paired ones
-        return result(problem, 'mahalanobis_nn', *nearest_within(nis, bound))
-    gated = nis <= bound
-    return result(problem, 'mahalanobis_nn', nearest_neighbours(nis, gated, True), gated)
+    if not one_to_one:
+        return nearest_within(problem, 'mahalanobis_nn', bound)
+    gated = problem.nis <= bound
+    return result(problem, 'mahalanobis_nn', nearest_neighbours(problem.nis, gated, True), gated)
 
 
 ASSOCIATOR = Associator(
