@@ -72,6 +72,13 @@ def _cloud_dtype(fields: tuple[tuple[str, int, int, int], ...], point_step: int,
 
 def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     """1-D structured array of the height*width points (row-major), native byte order."""
+    points = cloud_points(msg)
+    return points.astype(_native(points.dtype))
+
+
+def cloud_points(msg: PointCloud2) -> np.ndarray:
+    """The height*width points (row-major) as a read-only structured array over the message's
+    data: the fields at their offsets in their byte order (copied only to drop row padding)."""
     count = msg.height * msg.width
     point_step, row_step = msg.point_step, msg.row_step
     if count and point_step <= 0:
@@ -84,7 +91,7 @@ def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     if count == 0:
         if len(data):
             raise PointCloudFormatError(f'data has {len(data)} bytes, expected 0 for 0 points')
-        return np.zeros(0, dtype=_native(dtype))
+        return np.frombuffer(b'', dtype=dtype, count=0)
     if row_step < msg.width * point_step:
         raise PointCloudFormatError(
             f'row_step {row_step} is smaller than width * point_step = {msg.width * point_step}')
@@ -95,7 +102,9 @@ def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     if row_step != msg.width * point_step:   # drop each row's padding
         data = np.frombuffer(data, dtype=np.uint8).reshape(
             msg.height, row_step)[:, :msg.width * point_step].copy()
-    return np.frombuffer(data, dtype=dtype, count=count).astype(_native(dtype))
+    points = np.frombuffer(data, dtype=dtype, count=count)
+    points.flags.writeable = False
+    return points
 
 
 @lru_cache(maxsize=256)

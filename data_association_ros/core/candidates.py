@@ -125,9 +125,12 @@ class CandidateManager:
         """One scan's NEW observations: positions (M, d) in the map frame, covariances
         (M, d, d) or None, their indices in the message (M,); model 'box' for boxes;
         euclidean: gate by distance (the association was euclidean_nn)."""
-        self.scan += 1
         if self.confirm_hits == 1:
-            return self._confirm_all(positions, covariances, stamp_ns, indices)
+            first = self._next_id
+            self.count_confirmed(len(positions))
+            return CandidateUpdate(
+                self._confirmed_at_once(first, positions, covariances, stamp_ns, indices), ())
+        self.scan += 1
         positions = np.asarray(positions, dtype=float)
         indices = np.asarray(indices, dtype=np.int64)
         match = self._match(positions, covariances, model, euclidean)
@@ -162,21 +165,25 @@ class CandidateManager:
         self.expired_total += len(expired)
         return CandidateUpdate(tuple(confirmed), tuple(expired))
 
-    def _confirm_all(self, positions: np.ndarray, covariances: Optional[np.ndarray],
-                     stamp_ns: int, indices: np.ndarray) -> CandidateUpdate:
-        """confirm_hits 1: every observation is a landmark at once (ids in order; each mean and
-        covariance a row of this call's own copy)."""
+    def count_confirmed(self, count: int) -> None:
+        """confirm_hits 1: the state moves as `update` moves it for `count` NEW observations (the
+        scan, the candidate ids they take, the totals), without building their landmarks."""
+        self.scan += 1
         self.tracked.clear()
+        self._next_id += count
+        self.confirmed_total += count
+
+    @staticmethod
+    def _confirmed_at_once(first: int, positions: np.ndarray, covariances: Optional[np.ndarray],
+                           stamp_ns: int, indices: np.ndarray) -> tuple[ConfirmedLandmark, ...]:
+        """confirm_hits 1: every observation a landmark, ids from `first` in order (each mean
+        and covariance a row of this call's own copy)."""
         positions = np.array(positions, dtype=float)
         covariances = None if covariances is None else np.array(covariances, dtype=float)
-        first = self._next_id
-        self._next_id += len(positions)
-        confirmed = tuple(ConfirmedLandmark(
+        return tuple(ConfirmedLandmark(
             first + row, positions[row], None if covariances is None else covariances[row],
             ((stamp_ns, index),), 0)
             for row, index in enumerate(np.asarray(indices, dtype=np.int64).tolist()))
-        self.confirmed_total += len(confirmed)
-        return CandidateUpdate(confirmed, ())
 
     def _new_id(self) -> int:
         self._next_id += 1

@@ -18,9 +18,9 @@ import numpy as np
 from std_msgs.msg import Header
 
 from msg_adapters import (PointCloudFormatError, array_to_cloud, association_markers,
-                          candidates_cloud, cloud_to_array, correspondences_cloud, detect_model,
-                          landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
-                          observations_from_points, pose_from_odometry,
+                          candidates_cloud, cloud_points, cloud_to_array, correspondences_cloud,
+                          detect_model, landmarks_from_points, landmarks_from_pose_array,
+                          new_landmarks_cloud, observations_from_points, pose_from_odometry,
                           state_covariance_from_cloud, transform_message)
 
 from ..core import NEW, Association, InvalidInputError, Landmarks, RobotPose
@@ -263,7 +263,7 @@ class AssociationPipeline:
             self._reject(self.statistics.skipped, 'no_landmarks',
                          f'observation message skipped: landmarks {why}')
             return None
-        points = cloud_to_array(msg)
+        points = cloud_points(msg)
         model = config['measurement_model']
         if model == 'auto':
             model = detect_model(points.dtype.names or (), msg.header.frame_id, item.frame_id)
@@ -300,7 +300,8 @@ class AssociationPipeline:
         # 5 without)
         positions, covariances = observations_in_map(observations, pose,
                                                      config['candidate_pose_uncertainty'])
-        update = self._confirm(config, result, positions, covariances, stamp, model)
+        update = self._confirm(config, result, positions, covariances, stamp, model,
+                               'new_landmarks' in wanted)
         map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id) \
             if wanted else None
         answer = Answer(
@@ -318,7 +319,8 @@ class AssociationPipeline:
             if 'transform' in result.extras else None)
         self.statistics.record_answer(result.assignment, (time.perf_counter() - started) * 1e3,
                                       result.truncated, result.extras[RECOVERED])
-        self.statistics.record_candidates(len(update.confirmed), len(update.expired),
+        self.statistics.record_candidates(self.candidates.confirmed_total,
+                                          self.candidates.expired_total,
                                           len(self.candidates.pending))
         return answer
 
@@ -349,13 +351,19 @@ class AssociationPipeline:
         return answer
 
     def _confirm(self, config: dict[str, Any], result: Association, positions: np.ndarray,
-                 covariances: Optional[np.ndarray], stamp: int, model: str) -> CandidateUpdate:
-        """Feed the NEW observations (map frame) to the candidate landmarks."""
+                 covariances: Optional[np.ndarray], stamp: int, model: str,
+                 describe: bool) -> CandidateUpdate:
+        """Feed the NEW observations (map frame) to the candidate landmarks; describe False: the
+        confirmed landmarks may be left out of the update (with confirm_hits 1 they are only
+        counted)."""
         settings = CANDIDATE_SETTINGS(config)
         if settings != self._candidate_settings:
             self.candidates.configure(*settings)
             self._candidate_settings = settings
         new = (result.assignment == NEW).nonzero()[0]
+        if self.candidates.confirm_hits == 1 and not describe:
+            self.candidates.count_confirmed(len(new))
+            return CandidateUpdate((), ())
         try:
             return self.candidates.update(
                 positions[new], None if covariances is None else covariances[new], stamp, new,

@@ -60,9 +60,10 @@ class AssociationStatistics(WarningThrottle):
         self._latency_sum_ms += latency_ms
 
     def record_candidates(self, confirmed: int, expired: int, pending: int) -> None:
-        """Candidate landmarks after one answered message."""
-        self.candidates_confirmed += confirmed
-        self.candidates_expired += expired
+        """Candidate landmarks after one answered message: confirmed and expired so far, pending
+        now."""
+        self.candidates_confirmed = confirmed
+        self.candidates_expired = expired
         self.candidates_pending = pending
 
     def key_values(self) -> dict[str, object]:
