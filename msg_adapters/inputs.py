@@ -56,6 +56,7 @@ def _field(points: np.ndarray, name: str, what: str) -> np.ndarray:
 
 
 def _column(points: np.ndarray, name: str, what: str) -> np.ndarray:
+    """The field `name` as float64 (a copy)."""
     return _field(points, name, what).astype(np.float64)
 
 

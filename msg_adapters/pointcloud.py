@@ -38,7 +38,6 @@ def cloud_dtype(fields: Sequence[PointField], point_step: int, is_bigendian: boo
     return _cloud_dtype(tuple(map(_FIELD_LAYOUT, fields)), point_step, bool(is_bigendian))
 
 
-
 @lru_cache(maxsize=256)
 def _cloud_dtype(fields: tuple[tuple[str, int, int, int], ...], point_step: int,
                  is_bigendian: bool) -> np.dtype:

@@ -178,8 +178,9 @@ def nis_2d(values, predictions, angular, prediction_covariances, r, shared, floo
             c0[i, j] = s11 * scale
             c1[i, j] = -2.0 * s01 * scale
             c2[i, j] = s00 * scale
-    wrap_0, wrap_1 = angular[0], angular[1]   # loop invariants held in locals: the inner
-    h_0, h_1 = predictions[:, 0].copy(), predictions[:, 1].copy()   # loop then vectorises
+    # the loop invariants in locals and the predictions by component: the inner loop vectorises
+    wrap_0, wrap_1 = angular[0], angular[1]
+    h_0, h_1 = predictions[:, 0].copy(), predictions[:, 1].copy()
     for i in range(k):
         row = 0 if shared else i
         z_0, z_1 = values[i, 0], values[i, 1]

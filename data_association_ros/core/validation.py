@@ -28,9 +28,9 @@ def as_float_array(value, field: str, ndim: int) -> np.ndarray:
 
 def check_finite(array: np.ndarray, field: str) -> None:
     """Raise naming the first index holding NaN or inf."""
-    finite = np.isfinite(array)
-    if not finite.all():
-        index = tuple(int(i) for i in np.argwhere(~finite)[0])
+    bad = ~np.isfinite(array)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
         raise InvalidInputError(f'{field}[{", ".join(map(str, index))}]: not finite ({array[index]})')
 
 
