@@ -1,7 +1,9 @@
 """The per-scan fast paths of association_node (issue 18) against the code they stand in for:
 mahalanobis_nn's nearest-within answer, the fused range-bearing kernel, observations in the map
-frame without the pose term, time matching, the NaN test of array_to_cloud, the outcome counts,
-and the candidate state when confirmed landmarks are not wanted.  Each test is fast (< 1 s)."""
+frame without the pose term, time matching, the NaN test of array_to_cloud, parameters resolved
+once, the outcome counts, and the candidate state when confirmed landmarks are not wanted.  Each test is fast (< 1 s)."""
+import re
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -13,9 +15,12 @@ from msg_adapters.pointcloud import fields_of
 
 from data_association_ros import Observations, RobotPose
 from data_association_ros.bag.offline import node_config
-from data_association_ros.core import NEW, UNASSOCIATED, jit
+from data_association_ros.core import NEW, UNASSOCIATED, InvalidInputError, jit
+from data_association_ros.core.api import _resolve
+from data_association_ros.core.associators import REGISTRY
 from data_association_ros.core.associators.base import nearest_neighbours, nearest_within, result
 from data_association_ros.core.initialisation import observations_in_map
+from data_association_ros.core.parameters import resolve
 from data_association_ros.core.problem import AssociationProblem
 from data_association_ros.pipelines.association import AssociationPipeline
 from data_association_ros.pipelines.stamped_buffer import StampedBuffer
@@ -137,6 +142,25 @@ def test_observations_keep_their_checks():
     np.testing.assert_array_equal(observations.covariances, np.tile(np.diag([0.01, 1e-4]),
                                                                     (3, 1, 1)))
     assert not (observations.values.flags.writeable or observations.covariances.flags.writeable)
+
+
+@pytest.mark.parametrize('values', [{'gate_probability': 0.9}, {'one_to_one': True},
+                                    {'one_to_one': 1}, {'one_to_one': [1]}, {'nope': 1.0},
+                                    {'gate_probability': float('nan')}, {}])
+def test_parameters_resolved_once_answer_as_resolve(values):
+    """associate's cached resolve: the same values or error as resolve, True apart from 1, and a
+    dict of the caller's own."""
+    specs = REGISTRY['mahalanobis_nn'].parameters
+    try:
+        expected = resolve(specs, dict(values), 'mahalanobis_nn')
+    except InvalidInputError as error:
+        with pytest.raises(InvalidInputError, match=re.escape(str(error))):
+            _resolve('mahalanobis_nn', dict(values))
+        return
+    for _ in range(2):
+        got = _resolve('mahalanobis_nn', dict(values))
+        assert got == expected and all(type(got[k]) is type(expected[k]) for k in got)
+        got.clear()
 
 
 def test_outcome_counts():

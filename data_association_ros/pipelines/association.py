@@ -246,8 +246,7 @@ class AssociationPipeline:
         subscriber, None: all); the others are None, the state (candidates) is updated alike."""
         started = time.perf_counter()
         try:
-            with np.errstate(all='ignore'):  # absurd magnitudes give inf/NaN, reported as such
-                return self._answer(msg, started, OPTIONAL_OUTPUTS if wanted is None else wanted)
+            return self._answer(msg, started, OPTIONAL_OUTPUTS if wanted is None else wanted)
         except INPUT_ERRORS as error:
             self._invalid('observations', error)
         except Exception as error:  # never let one message take the node down
@@ -255,6 +254,7 @@ class AssociationPipeline:
                          f'observation message dropped by an internal error: {error!r}')
         return None
 
+    @np.errstate(all='ignore')   # absurd magnitudes give inf/NaN, reported as such
     def _answer(self, msg, started: float, wanted: AbstractSet[str]) -> Optional[Answer]:
         config = dict(self.config)
         stamp = stamp_ns(msg.header)
