@@ -5,7 +5,6 @@ row_step padding, height > 1 and big-endian data; rejects count != 1.  No per-po
 """
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 from operator import attrgetter
 from typing import Mapping, Sequence, Union
@@ -149,10 +148,9 @@ def _has_nan(data: bytes, count: int, point_step: int,
              float_runs: tuple[tuple[int, np.dtype, int], ...]) -> bool:
     """True when a float field of the `count` packed points in `data` holds NaN; float_runs:
     (offset, dtype, number of fields) of each run of adjacent float fields of one dtype."""
-    return count > 0 and any(  # the largest value is NaN when any is (inf is not NaN)
-        math.isnan(np.maximum.reduce(np.ndarray((count, width), dtype, data, offset,
-                                                (point_step, dtype.itemsize)), axis=None))
-        for offset, dtype, width in float_runs)
+    return count > 0 and any(np.isnan(np.ndarray((count, width), dtype, data, offset,
+                                                 (point_step, dtype.itemsize))).any()
+                             for offset, dtype, width in float_runs)
 
 
 @lru_cache(maxsize=128)
