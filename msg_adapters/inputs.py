@@ -5,6 +5,7 @@ layout errors pointcloud.PointCloudFormatError; both name the field.
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -47,10 +48,16 @@ def detect_model(field_names: Sequence[str], observation_frame: str, landmark_fr
         'range+bearing, x+y+width+height or x+y)')
 
 
-def _column(points: np.ndarray, name: str, what: str) -> np.ndarray:
+def _field(points: np.ndarray, name: str, what: str) -> np.ndarray:
+    """The field `name` of a structured array (InvalidInputError naming it when missing)."""
     if points.dtype.names is None or name not in points.dtype.names:
         raise InvalidInputError(f'{what}: missing field {name!r} (has {points.dtype.names})')
-    return points[name].astype(np.float64)
+    return points[name]
+
+
+def _column(points: np.ndarray, name: str, what: str) -> np.ndarray:
+    """The field `name` as float64 (a copy)."""
+    return _field(points, name, what).astype(np.float64)
 
 
 def _covariances_2d(points, names, fallback: np.ndarray) -> np.ndarray:
@@ -68,7 +75,22 @@ def _covariances_2d(points, names, fallback: np.ndarray) -> np.ndarray:
 
 
 def noise_matrix(variances: Sequence[float], dim: int) -> np.ndarray:
-    """diag of `dim` variances from 1 value (repeated) or `dim` values."""
+    """diag of `dim` variances from 1 value (repeated) or `dim` values (read-only; built once
+    per flat sequence of numbers)."""
+    try:
+        return _noise_matrix(tuple(variances), dim)
+    except TypeError:   # a scalar or nested values: not cached
+        return _diagonal(variances, dim)
+
+
+@lru_cache(maxsize=32)
+def _noise_matrix(variances: tuple, dim: int) -> np.ndarray:
+    matrix = _diagonal(variances, dim)
+    matrix.flags.writeable = False
+    return matrix
+
+
+def _diagonal(variances, dim: int) -> np.ndarray:
     variances = np.asarray(variances, dtype=np.float64).ravel()
     if variances.size == 1:
         variances = np.repeat(variances, dim)
@@ -83,8 +105,10 @@ def observations_from_points(points: np.ndarray, model: str,
     """Observations of `model` from a structured array; missing covariance fields fall back to
     diag(`observation_noise`) (variances in the model's units, 1 or m values)."""
     names = MODEL_FIELDS[model]
-    values = np.column_stack([_column(points, name, 'observations') for name in names]) \
-        if len(points) else np.zeros((0, len(names)))
+    values = np.zeros((len(points), len(names)))
+    if len(points):   # an empty cloud needs no fields
+        for column, name in enumerate(names):
+            values[:, column] = _field(points, name, 'observations')
     fallback = noise_matrix(observation_noise, len(names))
     if model in COVARIANCE_FIELDS:
         covariances = _covariances_2d(points, COVARIANCE_FIELDS[model], fallback)

@@ -1,6 +1,7 @@
 """Core results -> output messages: correspondences, new_landmarks, markers, diagnostics."""
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Mapping, Optional, Sequence
 
 import numpy as np
@@ -34,15 +35,25 @@ def correspondences_cloud(header, association: Association, map_positions: np.nd
     """PointCloud2, one point per observation: index, landmark id (-1 new, -2 unassociated),
     NIS (NaN when none), probability (1 unless given), map-frame x, y."""
     k = len(association.assignment)
-    points = np.zeros(k, dtype=CORRESPONDENCE_DTYPE)
-    points['observation'] = np.arange(k)
+    points = _correspondences(k).copy()
     points['landmark'] = association.assignment
     points['nis'] = association.nis
-    points['probability'] = 1.0 if probabilities is None else probabilities
+    if probabilities is not None:
+        points['probability'] = probabilities
     if k:
         points['x'] = map_positions[:, 0]
         points['y'] = map_positions[:, 1]
     return array_to_cloud(points, header)
+
+
+@lru_cache(maxsize=16)
+def _correspondences(k: int) -> np.ndarray:
+    """k correspondences points with their index and probability 1, the rest 0 (read-only)."""
+    points = np.zeros(k, dtype=CORRESPONDENCE_DTYPE)
+    points['observation'] = np.arange(k)
+    points['probability'] = 1.0
+    points.flags.writeable = False
+    return points
 
 
 def new_landmarks_cloud(header, confirmed: Sequence[ConfirmedLandmark]):

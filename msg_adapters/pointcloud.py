@@ -6,10 +6,12 @@ row_step padding, height > 1 and big-endian data; rejects count != 1.  No per-po
 from __future__ import annotations
 
 from functools import lru_cache
+from operator import attrgetter
 from typing import Mapping, Sequence, Union
 
 import numpy as np
 from sensor_msgs.msg import PointCloud2, PointField
+from std_msgs.msg import Header
 
 
 class PointCloudFormatError(ValueError):
@@ -25,13 +27,14 @@ POINTFIELD_DTYPES = {
 """PointField datatype constant -> numpy dtype (native byte order)."""
 _DATATYPE_OF = {(dtype.kind, dtype.itemsize): datatype
                 for datatype, dtype in POINTFIELD_DTYPES.items()}
+_FIELD_LAYOUT = attrgetter('name', 'offset', 'datatype', 'count')
+"""(name, offset, datatype, count) of a PointField."""
 
 
 def cloud_dtype(fields: Sequence[PointField], point_step: int, is_bigendian: bool) -> np.dtype:
     """Structured dtype of one point: the fields at their offsets, itemsize point_step (cached
     by layout: a sensor sends the same one every message)."""
-    return _cloud_dtype(tuple((field.name, field.offset, field.datatype, field.count)
-                              for field in fields), point_step, bool(is_bigendian))
+    return _cloud_dtype(tuple(map(_FIELD_LAYOUT, fields)), point_step, bool(is_bigendian))
 
 
 @lru_cache(maxsize=256)
@@ -67,6 +70,13 @@ def _cloud_dtype(fields: tuple[tuple[str, int, int, int], ...], point_step: int,
 
 def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     """1-D structured array of the height*width points (row-major), native byte order."""
+    points = cloud_points(msg)
+    return points.astype(_native(points.dtype))
+
+
+def cloud_points(msg: PointCloud2) -> np.ndarray:
+    """The height*width points (row-major) as a read-only structured array over the message's
+    data: the fields at their offsets in their byte order (copied only to drop row padding)."""
     count = msg.height * msg.width
     point_step, row_step = msg.point_step, msg.row_step
     if count and point_step <= 0:
@@ -79,7 +89,7 @@ def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     if count == 0:
         if len(data):
             raise PointCloudFormatError(f'data has {len(data)} bytes, expected 0 for 0 points')
-        return np.zeros(0, dtype=_native(dtype))
+        return np.frombuffer(b'', dtype=dtype, count=0)
     if row_step < msg.width * point_step:
         raise PointCloudFormatError(
             f'row_step {row_step} is smaller than width * point_step = {msg.width * point_step}')
@@ -87,12 +97,12 @@ def cloud_to_array(msg: PointCloud2) -> np.ndarray:
     if len(data) != expected:
         raise PointCloudFormatError(f'data has {len(data)} bytes, expected {expected} '
                                     f'(height {msg.height} * row_step {row_step})')
-    buffer = np.frombuffer(data, dtype=np.uint8)
-    if row_step != msg.width * point_step:
-        buffer = buffer.reshape(msg.height, row_step)[:, :msg.width * point_step].copy()
-    points = np.frombuffer(buffer.tobytes() if not buffer.flags.c_contiguous else buffer,
-                           dtype=dtype, count=count)
-    return points.astype(_native(dtype))
+    if row_step != msg.width * point_step:   # drop each row's padding
+        data = np.frombuffer(data, dtype=np.uint8).reshape(
+            msg.height, row_step)[:, :msg.width * point_step].copy()
+    points = np.frombuffer(data, dtype=dtype, count=count)
+    points.flags.writeable = False
+    return points
 
 
 @lru_cache(maxsize=256)
@@ -115,7 +125,7 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         for name, values in columns.items():
             structured[name] = values
         array = structured
-    packed_dtype, fields = _packed_layout(array.dtype)
+    packed_dtype, fields, float_runs = _packed_layout(array.dtype)
     if array.dtype == packed_dtype:
         packed = array
     else:
@@ -124,32 +134,45 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         packed = np.empty(len(array), dtype=packed_dtype)
         for name in array.dtype.names:
             packed[name] = array[name]
-    msg = PointCloud2(height=1, width=len(array), is_bigendian=False,
-                      point_step=packed_dtype.itemsize,
-                      row_step=packed_dtype.itemsize * len(array),
-                      is_dense=not any(np.isnan(packed[name]).any()
-                                       for name in packed_dtype.names
-                                       if packed_dtype.fields[name][0].kind == 'f'))
-    msg.fields = [PointField(name=name, offset=offset, count=1, datatype=datatype)
-                  for name, offset, datatype in fields]
-    if header is not None:
-        msg.header = header
-    msg.data = packed.tobytes()
-    return msg
+    data = packed.tobytes()
+    return PointCloud2(
+        header=Header() if header is None else header, height=1, width=len(array),
+        is_bigendian=False, point_step=packed_dtype.itemsize,
+        row_step=packed_dtype.itemsize * len(array), data=data,
+        is_dense=not _has_nan(data, len(array), packed_dtype.itemsize, float_runs),
+        fields=[PointField(name=name, offset=offset, count=1, datatype=datatype)
+                for name, offset, datatype in fields])
+
+
+def _has_nan(data: bytes, count: int, point_step: int,
+             float_runs: tuple[tuple[int, np.dtype, int], ...]) -> bool:
+    """True when a float field of the `count` packed points in `data` holds NaN; float_runs:
+    (offset, dtype, number of fields) of each run of adjacent float fields of one dtype."""
+    return count > 0 and any(np.isnan(np.ndarray((count, width), dtype, data, offset,
+                                                 (point_step, dtype.itemsize))).any()
+                             for offset, dtype, width in float_runs)
 
 
 @lru_cache(maxsize=128)
-def _packed_layout(dtype: np.dtype) -> tuple[np.dtype, tuple[tuple[str, int, int], ...]]:
-    """(packed little-endian dtype, its fields as (name, offset, PointField datatype)) of a
+def _packed_layout(dtype: np.dtype) -> tuple[np.dtype, tuple[tuple[str, int, int], ...],
+                                             tuple[tuple[int, np.dtype, int], ...]]:
+    """(packed little-endian dtype, its fields as (name, offset, PointField datatype), its
+    runs of adjacent float fields of one dtype as (offset, dtype, number of fields)) of a
     structured dtype."""
-    formats, fields, offset = [], [], 0
+    formats, fields, runs, offset = [], [], [], 0
     for name in dtype.names:
         field = np.dtype(dtype.fields[name][0])
         packed = _field_dtype(name, np.zeros(0, dtype=field))
         formats.append((name, packed))
         fields.append((name, offset, _DATATYPE_OF[(packed.kind, packed.itemsize)]))
+        if packed.kind == 'f':
+            if runs and runs[-1][1] == packed and \
+                    runs[-1][0] + runs[-1][2] * packed.itemsize == offset:
+                runs[-1] = (runs[-1][0], packed, runs[-1][2] + 1)
+            else:
+                runs.append((offset, packed, 1))
         offset += packed.itemsize
-    return np.dtype(formats), tuple(fields)
+    return np.dtype(formats), tuple(fields), tuple(runs)
 
 
 def _field_dtype(name: str, values: np.ndarray) -> np.dtype:

@@ -1,6 +1,7 @@
 """associate(): the one entry point of the core."""
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Optional
 
 from .associators import REGISTRY
@@ -44,7 +45,7 @@ def associate(landmarks: Landmarks, observations: Observations, algorithm: str =
         given[GATE_PROBABILITY.name] = gate_probability
     else:
         GATE_PROBABILITY.check(gate_probability)
-    parameters = resolve(associator.parameters, given, algorithm)
+    parameters = _resolve(algorithm, given)
     if observations.model not in associator.models if isinstance(observations, Observations) \
             else False:
         raise InvalidInputError(
@@ -57,6 +58,20 @@ def associate(landmarks: Landmarks, observations: Observations, algorithm: str =
         problem.require_covariances(algorithm)
     return associator.run(_local_problem(problem, associator, parameters, spatial_index),
                           **parameters)
+
+
+def _resolve(algorithm: str, given: dict) -> dict:
+    """resolve() of the algorithm's parameters, checked once per set of values (and of their
+    types: True is not 1 here); a copy each call."""
+    try:
+        return dict(_resolved(algorithm, tuple(given.items()), tuple(map(type, given.values()))))
+    except TypeError:   # an unhashable value: resolve names what is wrong with it
+        return resolve(REGISTRY[algorithm].parameters, given, algorithm)
+
+
+@lru_cache(maxsize=64)
+def _resolved(algorithm: str, given: tuple, types: tuple) -> dict:
+    return resolve(REGISTRY[algorithm].parameters, dict(given), algorithm)
 
 
 def _local_problem(problem: AssociationProblem, associator, parameters: dict,

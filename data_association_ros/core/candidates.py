@@ -16,7 +16,7 @@ scans.  confirm_hits = 1 confirms every NEW observation at once and keeps no sta
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -59,10 +59,10 @@ class Candidate:
         self.covariance = 0.5 * (fused + fused.T)
 
 
-@dataclass(frozen=True)
-class ConfirmedLandmark:
+class ConfirmedLandmark(NamedTuple):
     """A candidate that passed confirmation: its fused estimate, the observations that made it
-    ((stamp ns, index), oldest first) and the scans from its first observation to now."""
+    ((stamp ns, index), oldest first) and the scans from its first observation to now (an
+    immutable record, a named tuple: made for every NEW observation of every scan)."""
 
     candidate: int
     mean: np.ndarray
@@ -125,17 +125,14 @@ class CandidateManager:
         """One scan's NEW observations: positions (M, d) in the map frame, covariances
         (M, d, d) or None, their indices in the message (M,); model 'box' for boxes;
         euclidean: gate by distance (the association was euclidean_nn)."""
+        if self.confirm_hits == 1:
+            first = self._next_id
+            self.count_confirmed(len(positions))
+            return CandidateUpdate(
+                self._confirmed_at_once(first, positions, covariances, stamp_ns, indices), ())
         self.scan += 1
         positions = np.asarray(positions, dtype=float)
         indices = np.asarray(indices, dtype=np.int64)
-        if self.confirm_hits == 1:
-            self.tracked.clear()
-            confirmed = tuple(ConfirmedLandmark(
-                self._new_id(), positions[r].copy(),
-                None if covariances is None else covariances[r].copy(),
-                ((stamp_ns, int(indices[r])),), 0) for r in range(len(positions)))
-            self.confirmed_total += len(confirmed)
-            return CandidateUpdate(confirmed, ())
         match = self._match(positions, covariances, model, euclidean)
         for row, column in enumerate(match):
             covariance = None if covariances is None else covariances[row]
@@ -167,6 +164,26 @@ class CandidateManager:
         self.confirmed_total += len(confirmed)
         self.expired_total += len(expired)
         return CandidateUpdate(tuple(confirmed), tuple(expired))
+
+    def count_confirmed(self, count: int) -> None:
+        """confirm_hits 1: the state moves as `update` moves it for `count` NEW observations (the
+        scan, the candidate ids they take, the totals), without building their landmarks."""
+        self.scan += 1
+        self.tracked.clear()
+        self._next_id += count
+        self.confirmed_total += count
+
+    @staticmethod
+    def _confirmed_at_once(first: int, positions: np.ndarray, covariances: Optional[np.ndarray],
+                           stamp_ns: int, indices: np.ndarray) -> tuple[ConfirmedLandmark, ...]:
+        """confirm_hits 1: every observation a landmark, ids from `first` in order (each mean
+        and covariance a row of this call's own copy)."""
+        positions = np.array(positions, dtype=float)
+        covariances = None if covariances is None else np.array(covariances, dtype=float)
+        return tuple(ConfirmedLandmark(
+            first + row, positions[row], None if covariances is None else covariances[row],
+            ((stamp_ns, index),), 0)
+            for row, index in enumerate(np.asarray(indices, dtype=np.int64).tolist()))
 
     def _new_id(self) -> int:
         self._next_id += 1

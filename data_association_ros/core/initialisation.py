@@ -10,19 +10,17 @@ from .models import MODELS
 from .types import Observations, RobotPose
 
 
-def observations_in_map(observations: Observations,
-                        pose: Optional[RobotPose]) -> tuple[np.ndarray, Optional[np.ndarray]]:
+def observations_in_map(observations: Observations, pose: Optional[RobotPose],
+                        pose_uncertainty: bool = True
+                        ) -> tuple[np.ndarray, Optional[np.ndarray]]:
     """Map-frame positions (K, d) of the observations and their covariances (K, d, d) (None
-    when the observations carry no covariance)."""
+    when the observations carry no covariance); pose_uncertainty False: without the pose
+    covariance's term (as for RobotPose(pose.mean))."""
     model = MODELS[observations.model]
     if len(observations) == 0:
         d = model.landmark_dim(observations.dim)
         return np.zeros((0, d)), np.zeros((0, d, d))
-    mean = None if pose is None else pose.mean
-    positions, j_z, j_pose = model.inverse(observations.values, mean)
-    if observations.covariances is None:
-        return positions, None
-    covariances = j_z @ observations.covariances @ np.swapaxes(j_z, 1, 2)
-    if pose is not None:
-        covariances = covariances + j_pose @ pose.covariance @ np.swapaxes(j_pose, 1, 2)
-    return positions, covariances
+    if pose is None:
+        return model.in_map(observations.values, observations.covariances, None, None)
+    return model.in_map(observations.values, observations.covariances, pose.mean,
+                        pose.covariance if pose_uncertainty else None)

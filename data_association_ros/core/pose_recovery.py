@@ -106,4 +106,5 @@ def associate_with_pose_recovery(landmarks: Landmarks, observations: Observation
         if not recovery.better(first.assignment, second.assignment):
             second = None
     kept = first if second is None else second
-    return dataclasses.replace(kept, extras={**kept.extras, RECOVERED: second is not None})
+    kept.extras = {**kept.extras, RECOVERED: second is not None}   # kept is this call's own
+    return kept

@@ -360,6 +360,9 @@ class AssociationProblem:
         if k == 0 or n == 0:
             return np.zeros((k, n))
         kernels = jit.problem_kernels() if self.observations.dim == 2 else None
+        if kernels is not None and self.model.name == 'range_bearing' and \
+                '_prediction' not in self.__dict__:
+            return self._range_bearing_nis(kernels)
         if kernels is not None:
             return kernels.run_nis_2d(self.observations.values, self.predictions,
                                       self.model.angular, self.prediction_covariances,
@@ -379,6 +382,16 @@ class AssociationProblem:
             d2 = np.einsum('knm,knm->kn', nu, np.einsum('knab,knb->kna', inverse, nu))
         # a numerically singular S (absurd magnitudes): that pair can never be gated
         return np.where(np.isfinite(d2) & (d2 >= 0), d2, np.inf)
+
+    def _range_bearing_nis(self, kernels) -> np.ndarray:
+        """nis (K, N) by one compiled call that also fills the caches of _prediction and
+        prediction_covariances (range_bearing, whose three kernels it runs)."""
+        prediction, covariances, nis = kernels.run_range_bearing_nis(
+            self.landmarks.means, self.pose.mean, self._pose_covariance(),
+            self.landmarks.covariances, self.state_covariance, self.observations.values,
+            self.observations.covariances, self.min_innovation_variance)
+        self.__dict__.update(_prediction=prediction, prediction_covariances=covariances)
+        return nis
 
     @cached_property
     def log_likelihoods(self) -> np.ndarray:

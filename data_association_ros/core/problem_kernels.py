@@ -2,9 +2,11 @@
 each quantity and keeps the numpy form, used without numba and inside jit.compiled(False)):
 
 * range_bearing_predict: the range-bearing model's predictions and Jacobians;
+* range_bearing_in_map: range-bearing observations in the map frame with their covariances;
 * prediction_covariances: H_j P_j H_j^T (N, m, m), P_j the covariance of [pose, landmark j];
 * nis_2d: d2_ij (K, N) for m = 2 from the observations and predictions, angular components
   wrapped, S_ij = H_j P_j H_j^T + R_i (diagonal floored), without the (K, N, m) innovations;
+* range_bearing_nis: the three above for range-bearing observations in one call;
 * pair_terms: nu and S of chosen pairs only (the JCBB search's candidates);
 * is_covariance_matrix, are_spd_2x2: the checks of a joint covariance and of 2 x 2 covariance
   stacks on arrival;
@@ -16,6 +18,7 @@ numpy's (same formulas, same order within nis_2d; the 3 x 3 products may round d
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Optional
 
 import numpy as np
@@ -31,7 +34,17 @@ def prediction_covariances(h_x, h_m, pose_covariance, landmark_covariances, stat
     """out[j] = A_j P_j A_j^T (N, m, m), A_j = [h_x[j] (m, 3), h_m[j] (m, d)]; P_j is the
     block of [pose, landmark j] of `state` ((3 + N d) square) when it has rows, else
     blockdiag(pose_covariance (3, 3), landmark_covariances[j] (d, d))."""
-    n, m, d = h_m.shape
+    _, m, d = h_m.shape
+    if m == 2 and d == 2:   # constant sizes: the small loops unroll (2x faster, same sums)
+        _prediction_covariances(h_x, h_m, pose_covariance, landmark_covariances, state, out, 2, 2)
+    else:
+        _prediction_covariances(h_x, h_m, pose_covariance, landmark_covariances, state, out, m, d)
+
+
+@njit
+def _prediction_covariances(h_x, h_m, pose_covariance, landmark_covariances, state, out, m, d):
+    """prediction_covariances for m-dimensional measurements of d-dimensional landmarks."""
+    n = h_m.shape[0]
     width = 3 + d
     joint = state.shape[0] > 0
     block = np.zeros((width, width))
@@ -110,6 +123,40 @@ def range_bearing_predict(means, pose, h, h_landmark, h_pose):
 
 
 @njit
+def range_bearing_in_map(values, pose, r, pose_covariance, positions, covariances):
+    """RangeBearingModel.in_map (models/range_bearing.py) into positions (K, 2) and covariances
+    (K, 2, 2): for z_i = (range, bearing) with R_i = r[i] at pose (3,) of covariance
+    pose_covariance (3, 3), x_i = t + range (cos a, sin a), a = yaw + bearing, and
+    (G_z R_i) G_z^T + (G_pose P) G_pose^T, each product summed in numpy's order."""
+    g_z = np.empty((2, 2))
+    g_pose = np.zeros((2, 3))
+    g_pose[0, 0] = g_pose[1, 1] = 1.0
+    for i in range(values.shape[0]):
+        distance = values[i, 0]
+        angle = pose[2] + values[i, 1]
+        c, s = np.cos(angle), np.sin(angle)
+        positions[i, 0] = pose[0] + distance * c
+        positions[i, 1] = pose[1] + distance * s
+        g_z[0, 0], g_z[0, 1], g_z[1, 0], g_z[1, 1] = c, -distance * s, s, distance * c
+        g_pose[0, 2], g_pose[1, 2] = -distance * s, distance * c
+        for a in range(2):
+            for b in range(2):
+                noise = 0.0
+                for p in range(2):
+                    left = 0.0
+                    for q in range(2):
+                        left += g_z[a, q] * r[i, q, p]
+                    noise += left * g_z[b, p]
+                motion = 0.0
+                for p in range(3):
+                    left = 0.0
+                    for q in range(3):
+                        left += g_pose[a, q] * pose_covariance[q, p]
+                    motion += left * g_pose[b, p]
+                covariances[i, a, b] = noise + motion
+
+
+@njit
 def nis_2d(values, predictions, angular, prediction_covariances, r, shared, floor, out):
     """out[i, j] = nu^T S^-1 nu (K, N) with nu = values[i] - predictions[j] ((K, 2), (N, 2);
     component c wrapped when angular[c]) and S = prediction_covariances[j] + r[0 if shared
@@ -131,19 +178,48 @@ def nis_2d(values, predictions, angular, prediction_covariances, r, shared, floo
             c0[i, j] = s11 * scale
             c1[i, j] = -2.0 * s01 * scale
             c2[i, j] = s00 * scale
+    # the loop invariants in locals and the predictions by component: the inner loop vectorises
+    wrap_0, wrap_1 = angular[0], angular[1]
+    h_0, h_1 = predictions[:, 0].copy(), predictions[:, 1].copy()
     for i in range(k):
         row = 0 if shared else i
+        z_0, z_1 = values[i, 0], values[i, 1]
+        w_0, w_1, w_2, d2_row = c0[row], c1[row], c2[row], out[i]
         for j in range(n):
-            a = values[i, 0] - predictions[j, 0]
-            b = values[i, 1] - predictions[j, 1]
-            if angular[0]:
+            a = z_0 - h_0[j]
+            b = z_1 - h_1[j]
+            if wrap_0:
                 a = _wrap(a)
-            if angular[1]:
+            if wrap_1:
                 b = _wrap(b)
-            d2 = a * a * c0[row, j]
-            d2 += a * b * c1[row, j]
-            d2 += b * b * c2[row, j]
-            out[i, j] = d2 if d2 < np.inf and d2 >= 0 else np.inf
+            d2 = a * a * w_0[j]
+            d2 += a * b * w_1[j]
+            d2 += b * b * w_2[j]
+            d2_row[j] = d2 if d2 < np.inf and d2 >= 0 else np.inf
+
+
+@njit
+def _all_equal(matrices):
+    """True when every matrix of the stack (K, m, m) equals the first (problem._one_noise)."""
+    for k in range(1, matrices.shape[0]):
+        for a in range(matrices.shape[1]):
+            for b in range(matrices.shape[2]):
+                if matrices[k, a, b] != matrices[0, a, b]:
+                    return False
+    return True
+
+
+@njit
+def range_bearing_nis(means, pose, pose_covariance, landmark_covariances, state, values,
+                      angular, r, floor, h, h_landmark, h_pose, prediction_covs, out):
+    """range_bearing_predict, prediction_covariances and nis_2d (shared when every R is the
+    same) in one call, one dispatch at a scan instead of three: the predictions into h,
+    h_landmark, h_pose, their covariances into prediction_covs and the NIS of every pair into
+    out (K >= 1)."""
+    range_bearing_predict(means, pose, h, h_landmark, h_pose)
+    prediction_covariances(h_pose, h_landmark, pose_covariance, landmark_covariances, state,
+                           prediction_covs)
+    nis_2d(values, h, angular, prediction_covs, r, _all_equal(r), floor, out)
 
 
 @njit
@@ -238,7 +314,12 @@ def first_indefinite_block(state, n, d):
 
 
 def _read_only(array, dtype=np.float64) -> np.ndarray:
-    """A read-only C-contiguous view of `array` as `dtype` (a copy only when it is not one)."""
+    """`array` when it is a read-only C-contiguous `dtype` array (the core's types store theirs
+    so), else a read-only C-contiguous view of it as `dtype` (a copy only when it is not
+    C-contiguous `dtype`)."""
+    if type(array) is np.ndarray and array.dtype == dtype and not array.flags.writeable \
+            and array.flags.c_contiguous:
+        return array
     view = np.ascontiguousarray(array, dtype=dtype).view()
     view.flags.writeable = False
     return view
@@ -250,6 +331,7 @@ _NO_STATE = _read_only(np.zeros((0, 0)))
 _ZERO_POSE = _read_only(np.zeros((3, 3)))
 
 
+@lru_cache(maxsize=16)
 def _angular_flags(m: int, angular: tuple[int, ...]) -> np.ndarray:
     """(m,) bool, True at the angular components."""
     return _read_only([c in angular for c in range(m)], np.bool_)
@@ -269,6 +351,19 @@ def run_range_bearing_predict(means: np.ndarray, pose: np.ndarray
     return out
 
 
+def run_range_bearing_in_map(values: np.ndarray, covariances: np.ndarray, pose: np.ndarray,
+                             pose_covariance: Optional[np.ndarray]
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    """(positions (K, 2), covariances (K, 2, 2)) by range_bearing_in_map for measurements
+    (K, 2) with covariances (K, 2, 2) at pose (3,) of covariance (3, 3) (None: no pose term)."""
+    count = values.shape[0]
+    out = np.empty((count, 2)), np.empty((count, 2, 2))
+    range_bearing_in_map(_read_only(values), _read_only(pose), _read_only(covariances),
+                         _ZERO_POSE if pose_covariance is None else _read_only(pose_covariance),
+                         *out)
+    return out
+
+
 def run_prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance: np.ndarray,
                                landmark_covariances: Optional[np.ndarray],
                                state: Optional[np.ndarray]) -> np.ndarray:
@@ -276,13 +371,39 @@ def run_prediction_covariances(h_x: np.ndarray, h_m: np.ndarray, pose_covariance
     covariance `state` or the pose covariance (3, 3) and Cov(m_j) (N, d, d)."""
     n, m, d = h_m.shape
     out = np.empty((n, m, m))
-    if state is not None:
-        pose_covariance, landmark_covariances = _ZERO_POSE, np.zeros((0, d, d))
-    else:
-        state = _NO_STATE
-    prediction_covariances(_read_only(h_x), _read_only(h_m), _read_only(pose_covariance),
-                           _read_only(landmark_covariances), _read_only(state), out)
+    prediction_covariances(_read_only(h_x), _read_only(h_m),
+                           *_covariance_inputs(pose_covariance, landmark_covariances, state, d),
+                           out)
     return out
+
+
+def _covariance_inputs(pose_covariance: np.ndarray, landmark_covariances: Optional[np.ndarray],
+                       state: Optional[np.ndarray], d: int) -> tuple[np.ndarray, ...]:
+    """(pose covariance, landmark covariances, joint covariance) as prediction_covariances reads
+    them: the joint covariance and stand-ins for the others when it is given, else the pose's
+    and landmarks' covariances and an empty joint one."""
+    if state is not None:
+        return _ZERO_POSE, _read_only(np.zeros((0, d, d))), _read_only(state)
+    return _read_only(pose_covariance), _read_only(landmark_covariances), _NO_STATE
+
+
+def run_range_bearing_nis(means: np.ndarray, pose: np.ndarray, pose_covariance: np.ndarray,
+                          landmark_covariances: Optional[np.ndarray], state: Optional[np.ndarray],
+                          values: np.ndarray, r: np.ndarray, floor: float
+                          ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray,
+                                     np.ndarray]:
+    """((h (N, 2), dh/dm (N, 2, 2), dh/dpose (N, 2, 3)), H P H^T (N, 2, 2), nis (K, N)) by
+    range_bearing_nis for landmark means (N, 2), pose (3,), the covariances as for
+    run_prediction_covariances and K >= 1 observations (K, 2) with R (K, 2, 2); floor <= 0:
+    none."""
+    n = means.shape[0]
+    prediction = np.empty((n, 2)), np.empty((n, 2, 2)), np.empty((n, 2, 3))
+    covariances, nis = np.empty((n, 2, 2)), np.empty((values.shape[0], n))
+    range_bearing_nis(_read_only(means), _read_only(pose),
+                      *_covariance_inputs(pose_covariance, landmark_covariances, state, 2),
+                      _read_only(values), _angular_flags(2, (1,)), _read_only(r),
+                      _floor(floor), *prediction, covariances, nis)
+    return prediction, covariances, nis
 
 
 def run_nis_2d(values: np.ndarray, predictions: np.ndarray, angular: tuple[int, ...],
@@ -336,6 +457,12 @@ def _warm_up() -> None:
             and np.allclose(jacobian, [[[0.6, 0.8], [-0.16, 0.12]]])
             and np.allclose(pose_jacobian, [[[-0.6, -0.8, 0.0], [0.16, -0.12, -1.0]]])):
         raise RuntimeError(f'range_bearing_predict warm-up: {h} {jacobian} {pose_jacobian}')
+    positions, covariances = run_range_bearing_in_map(  # G_z = [[0, -2], [1, 0]]
+        np.array([[2.0, np.pi / 2]]), np.diag([1.0, 0.25])[None], np.array([1.0, 0.0, 0.0]),
+        np.eye(3) * 0.5)
+    if not (np.allclose(positions, [[1.0, 2.0]])
+            and np.allclose(covariances, [[[3.5, 0.0], [0.0, 1.5]]])):
+        raise RuntimeError(f'range_bearing_in_map warm-up: {positions} {covariances}')
     blocks = run_prediction_covariances(h_x, h_m, np.eye(3) * 0.5,
                                         np.tile(np.eye(2) * 0.25, (2, 1, 1)), None)
     joint = run_prediction_covariances(h_x, h_m, np.zeros((3, 3)), None, np.eye(7) * 0.5)
@@ -355,6 +482,14 @@ def _warm_up() -> None:
         nis = run_nis_2d(np.array([[1.0, 0.0]]), np.zeros((2, 2)), (1,), joint, r, shared, 0.0)
         if not np.allclose(nis, 0.5):
             raise RuntimeError(f'nis_2d warm-up: {nis} instead of 0.5')
+    prediction, covariances, fused = run_range_bearing_nis(
+        np.array([[3.0, 4.0]]), np.array([0.0, 0.0, np.pi / 2]), np.eye(3) * 0.5, None,
+        np.eye(5) * 0.25, np.array([[5.0, 0.5]]), r, 0.0)
+    separate = run_nis_2d(np.array([[5.0, 0.5]]), h, (1,),
+                          run_prediction_covariances(pose_jacobian, jacobian, np.zeros((3, 3)),
+                                                     None, np.eye(5) * 0.25), r, True, 0.0)
+    if not (np.array_equal(prediction[0], h) and np.array_equal(fused, separate)):
+        raise RuntimeError(f'range_bearing_nis warm-up: {prediction} {covariances} {fused}')
     nu, s = run_pair_terms(np.array([[1.0, 4.0]]), np.zeros((2, 2)), (1,), joint, r, 2.5,
                            np.array([0]), np.array([1]))
     if not (np.allclose(nu, [[1.0, 4.0 - 2.0 * np.pi]]) and np.allclose(s, 2.5 * np.eye(2))):

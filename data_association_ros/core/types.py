@@ -1,7 +1,7 @@
 """The core's data types: landmarks, observations, robot pose and the association result.
 
-Constructors copy their inputs to float64/int64 arrays and validate them; bad input raises
-InvalidInputError naming the field and index.
+Constructors copy their inputs to float64/int64 arrays, validate them and store them read-only;
+bad input raises InvalidInputError naming the field and index.
 """
 from __future__ import annotations
 
@@ -40,12 +40,23 @@ def _empty_as_2d(value, columns: int):
     return value
 
 
+def _set_read_only(instance, **fields) -> None:
+    """Set the fields of a frozen instance, its arrays read-only: the core's types are
+    immutable, so what is derived from them once (a map's spatial index) stays valid and the
+    compiled kernels take them as they are."""
+    for name, value in fields.items():
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False
+        object.__setattr__(instance, name, value)
+
+
 def _covariance_stack(value, field_name: str, count: int, dim: int) -> Optional[np.ndarray]:
     if value is None:
         return None
     kernels = jit.problem_kernels() if dim == 2 else None
     if kernels is not None:   # one compiled pass; the checks below say what is wrong
         covariances = as_float64(value, field_name)
+        covariances.flags.writeable = False   # as it is stored (the kernel takes it so)
         if covariances.shape == (count, 2, 2) and kernels.run_are_spd_2x2(covariances):
             return covariances
     covariances = as_float_array(value, field_name, 3)
@@ -95,21 +106,13 @@ class Landmarks:
             raise InvalidInputError(
                 f'landmarks.ids[{indices[1]}]: duplicate id {duplicate} (also at index {indices[0]})')
         covariances = _covariance_stack(covariances, 'landmarks.covariances', count, means.shape[1])
-        self._set(ids_array, means, covariances)
-
-    def _set(self, ids: np.ndarray, means: np.ndarray, covariances: Optional[np.ndarray]) -> None:
-        """Store the arrays read-only: a map is immutable, so what is derived from it once (its
-        spatial index) stays valid."""
-        for name, value in (('ids', ids), ('means', means), ('covariances', covariances)):
-            if value is not None:
-                value.flags.writeable = False
-            object.__setattr__(self, name, value)
+        _set_read_only(self, ids=ids_array, means=means, covariances=covariances)
 
     def subset(self, columns: np.ndarray) -> 'Landmarks':
         """The landmarks at `columns` (L,), in that order (already validated: no checks)."""
         part = object.__new__(Landmarks)
-        part._set(self.ids[columns], self.means[columns],
-                  None if self.covariances is None else self.covariances[columns])
+        _set_read_only(part, ids=self.ids[columns], means=self.means[columns],
+                       covariances=None if self.covariances is None else self.covariances[columns])
         return part
 
     def __len__(self) -> int:
@@ -149,9 +152,7 @@ class Observations:
             raise InvalidInputError(f'observations.values[{index}]: negative box width or height')
         covariances = _covariance_stack(covariances, 'observations.covariances', values.shape[0],
                                         values.shape[1])
-        object.__setattr__(self, 'values', values)
-        object.__setattr__(self, 'covariances', covariances)
-        object.__setattr__(self, 'model', model)
+        _set_read_only(self, values=values, covariances=covariances, model=model)
 
     def __len__(self) -> int:
         return int(self.values.shape[0])
@@ -179,8 +180,7 @@ class RobotPose:
             raise InvalidInputError('pose.covariance: not symmetric')
         if np.linalg.eigvalsh(covariance)[0] < -1e-9 * (1 + np.abs(covariance).max()):
             raise InvalidInputError('pose.covariance: not positive semi-definite')
-        object.__setattr__(self, 'mean', mean)
-        object.__setattr__(self, 'covariance', covariance)
+        _set_read_only(self, mean=mean, covariance=covariance)
 
 
 @dataclass

@@ -10,15 +10,17 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import lru_cache
+from operator import itemgetter
 from typing import AbstractSet, Any, Callable, Optional
 
 import numpy as np
 from std_msgs.msg import Header
 
 from msg_adapters import (PointCloudFormatError, array_to_cloud, association_markers,
-                          candidates_cloud, cloud_to_array, correspondences_cloud, detect_model,
-                          landmarks_from_points, landmarks_from_pose_array, new_landmarks_cloud,
-                          observations_from_points, pose_from_odometry,
+                          candidates_cloud, cloud_points, cloud_to_array, correspondences_cloud,
+                          detect_model, landmarks_from_points, landmarks_from_pose_array,
+                          new_landmarks_cloud, observations_from_points, pose_from_odometry,
                           state_covariance_from_cloud, transform_message)
 
 from ..core import NEW, Association, InvalidInputError, Landmarks, RobotPose
@@ -60,6 +62,17 @@ class StampedCovariance:
     matrix: np.ndarray
 
 
+CANDIDATE_SETTINGS = itemgetter('confirm_hits', 'confirm_window', 'candidate_max_misses',
+                                'gate_probability', 'euclidean_gate', 'iou_threshold')
+"""The values of CandidateManager.configure's parameters in a config, in its order."""
+
+
+@lru_cache(maxsize=16, typed=True)
+def pose_recovery(position_std: float, yaw_std: float, min_new: int) -> PoseRecovery:
+    """The (immutable) PoseRecovery of these settings, built once."""
+    return PoseRecovery(position_std, yaw_std, min_new)
+
+
 OPTIONAL_OUTPUTS = frozenset({'new_landmarks', 'landmark_candidates', 'association_markers'})
 """Outputs built only when wanted (AssociationPipeline.answer), by their topic names."""
 
@@ -92,6 +105,7 @@ class AssociationPipeline:
         self.pose_history: StampedBuffer = StampedBuffer(200)
         self.covariance_history: StampedBuffer[StampedCovariance] = StampedBuffer(50)
         self.candidates = CandidateManager()
+        self._candidate_settings: tuple = ()   # the values of CANDIDATE_SETTINGS in force
         self.odometry_history: StampedBuffer = StampedBuffer(200)
         self.multi_hypothesis = MultiHypothesisStage()
 
@@ -195,6 +209,8 @@ class AssociationPipeline:
             return False
         try:
             stamp = stamp_ns(msg.header)
+            if newest >= stamp - int(self.config['pose_tolerance'] * NS_PER_S):
+                return False    # it has come
             if not multi_hypothesis and self.config['measurement_model'] == 'auto':
                 landmarks, _ = self.landmark_history.latest_not_after(stamp, 2 ** 62)
                 names = {field.name for field in msg.fields}
@@ -203,7 +219,7 @@ class AssociationPipeline:
                     return False    # a map-frame model needs no pose
         except (AttributeError, TypeError, ValueError, InvalidInputError):
             return False
-        return newest < stamp - int(self.config['pose_tolerance'] * NS_PER_S)
+        return True
 
     def _map_for(self, stamp: int, config: dict[str, Any]
                  ) -> tuple[Optional[StampedLandmarks], str]:
@@ -230,8 +246,7 @@ class AssociationPipeline:
         subscriber, None: all); the others are None, the state (candidates) is updated alike."""
         started = time.perf_counter()
         try:
-            with np.errstate(all='ignore'):  # absurd magnitudes give inf/NaN, reported as such
-                return self._answer(msg, started, OPTIONAL_OUTPUTS if wanted is None else wanted)
+            return self._answer(msg, started, OPTIONAL_OUTPUTS if wanted is None else wanted)
         except INPUT_ERRORS as error:
             self._invalid('observations', error)
         except Exception as error:  # never let one message take the node down
@@ -239,6 +254,7 @@ class AssociationPipeline:
                          f'observation message dropped by an internal error: {error!r}')
         return None
 
+    @np.errstate(all='ignore')   # absurd magnitudes give inf/NaN, reported as such
     def _answer(self, msg, started: float, wanted: AbstractSet[str]) -> Optional[Answer]:
         config = dict(self.config)
         stamp = stamp_ns(msg.header)
@@ -247,7 +263,7 @@ class AssociationPipeline:
             self._reject(self.statistics.skipped, 'no_landmarks',
                          f'observation message skipped: landmarks {why}')
             return None
-        points = cloud_to_array(msg)
+        points = cloud_points(msg)
         model = config['measurement_model']
         if model == 'auto':
             model = detect_model(points.dtype.names or (), msg.header.frame_id, item.frame_id)
@@ -275,17 +291,19 @@ class AssociationPipeline:
         state_covariance = self._joint_covariance(item)
         result = associate_with_pose_recovery(
             landmarks, observations, config['algorithm'], pose, state_covariance,
-            PoseRecovery(config['recovery_position_std'], config['recovery_yaw_std'],
-                         config['recovery_min_new']),
+            pose_recovery(config['recovery_position_std'], config['recovery_yaw_std'],
+                          config['recovery_min_new']),
             spatial_index=True if too_many_pairs else None, **algorithm_arguments(config))
-        positions, covariances = observations_in_map(observations, pose)
-        if pose is not None and not config['candidate_pose_uncertainty']:
-            # the observation noise alone: a SLAM's pose error is common to consecutive scans
-            # and would only widen every candidate gate (ttk4250 with 20 clutter returns per
-            # scan: 66 false landmarks confirmed 3 scans in a row with it, 5 without)
-            _, covariances = observations_in_map(observations, RobotPose(pose.mean))
-        map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id)
-        update = self._confirm(config, result, positions, covariances, stamp, model)
+        # candidate_pose_uncertainty false: the observation noise alone (a SLAM's pose error is
+        # common to consecutive scans and would only widen every candidate gate; ttk4250 with
+        # 20 clutter returns per scan: 66 false landmarks confirmed 3 scans in a row with it,
+        # 5 without)
+        positions, covariances = observations_in_map(observations, pose,
+                                                     config['candidate_pose_uncertainty'])
+        update = self._confirm(config, result, positions, covariances, stamp, model,
+                               'new_landmarks' in wanted)
+        map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id) \
+            if wanted else None
         answer = Answer(
             correspondences=correspondences_cloud(msg.header, result, positions),
             new_landmarks=new_landmarks_cloud(map_header, update.confirmed)
@@ -301,7 +319,8 @@ class AssociationPipeline:
             if 'transform' in result.extras else None)
         self.statistics.record_answer(result.assignment, (time.perf_counter() - started) * 1e3,
                                       result.truncated, result.extras[RECOVERED])
-        self.statistics.record_candidates(len(update.confirmed), len(update.expired),
+        self.statistics.record_candidates(self.candidates.confirmed_total,
+                                          self.candidates.expired_total,
                                           len(self.candidates.pending))
         return answer
 
@@ -332,12 +351,19 @@ class AssociationPipeline:
         return answer
 
     def _confirm(self, config: dict[str, Any], result: Association, positions: np.ndarray,
-                 covariances: Optional[np.ndarray], stamp: int, model: str) -> CandidateUpdate:
-        """Feed the NEW observations (map frame) to the candidate landmarks."""
-        self.candidates.configure(config['confirm_hits'], config['confirm_window'],
-                                  config['candidate_max_misses'], config['gate_probability'],
-                                  config['euclidean_gate'], config['iou_threshold'])
-        new = np.flatnonzero(result.assignment == NEW)
+                 covariances: Optional[np.ndarray], stamp: int, model: str,
+                 describe: bool) -> CandidateUpdate:
+        """Feed the NEW observations (map frame) to the candidate landmarks; describe False: the
+        confirmed landmarks may be left out of the update (with confirm_hits 1 they are only
+        counted)."""
+        settings = CANDIDATE_SETTINGS(config)
+        if settings != self._candidate_settings:
+            self.candidates.configure(*settings)
+            self._candidate_settings = settings
+        new = (result.assignment == NEW).nonzero()[0]
+        if self.candidates.confirm_hits == 1 and not describe:
+            self.candidates.count_confirmed(len(new))
+            return CandidateUpdate((), ())
         try:
             return self.candidates.update(
                 positions[new], None if covariances is None else covariances[new], stamp, new,

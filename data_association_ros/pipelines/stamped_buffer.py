@@ -55,9 +55,10 @@ class StampedBuffer(Generic[Item]):
         """(item with the stamp nearest stamp_ns within tolerance_ns, '') or (None, why)."""
         if not self._stamps:
             return None, 'none received'
-        index = bisect.bisect_left(self._stamps, stamp_ns)
-        candidates = [i for i in (index - 1, index) if 0 <= i < len(self._stamps)]
-        best = min(candidates, key=lambda i: abs(self._stamps[i] - stamp_ns))
-        if abs(self._stamps[best] - stamp_ns) > tolerance_ns:
+        stamps = self._stamps
+        best = bisect.bisect_left(stamps, stamp_ns)   # the first not older; the older one wins ties
+        if best == len(stamps) or best and stamp_ns - stamps[best - 1] <= stamps[best] - stamp_ns:
+            best -= 1
+        if abs(stamps[best] - stamp_ns) > tolerance_ns:
             return None, 'none within the tolerance'
         return self._items[best], ''

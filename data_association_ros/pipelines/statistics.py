@@ -48,9 +48,11 @@ class AssociationStatistics(WarningThrottle):
                       pose_recovered: bool = False) -> None:
         """One observation message answered (pose_recovered: by the widened second pass)."""
         self.answered += 1
-        self.outcomes['paired'] += int((assignment >= 0).sum())
-        self.outcomes['new'] += int((assignment == NEW).sum())
-        self.outcomes['unassociated'] += int((assignment == UNASSOCIATED).sum())
+        values = assignment.tolist()   # landmark ids (>= 0), NEW or UNASSOCIATED
+        new, unassociated = values.count(NEW), values.count(UNASSOCIATED)
+        self.outcomes['paired'] += len(values) - new - unassociated
+        self.outcomes['new'] += new
+        self.outcomes['unassociated'] += unassociated
         self.truncated += int(truncated)
         self.pose_recoveries += int(pose_recovered)
         self.latency_last_ms = latency_ms
@@ -58,9 +60,10 @@ class AssociationStatistics(WarningThrottle):
         self._latency_sum_ms += latency_ms
 
     def record_candidates(self, confirmed: int, expired: int, pending: int) -> None:
-        """Candidate landmarks after one answered message."""
-        self.candidates_confirmed += confirmed
-        self.candidates_expired += expired
+        """Candidate landmarks after one answered message: confirmed and expired so far, pending
+        now."""
+        self.candidates_confirmed = confirmed
+        self.candidates_expired = expired
         self.candidates_pending = pending
 
     def key_values(self) -> dict[str, object]:

@@ -65,27 +65,42 @@ def nearest_neighbours(cost: np.ndarray, gated: np.ndarray, one_to_one: bool) ->
     return chosen
 
 
-def label(problem: AssociationProblem, columns: np.ndarray, gated: np.ndarray,
-          unmatched: int | None = None) -> np.ndarray:
-    """Landmark ids for the chosen columns (K,); an unpaired row is UNASSOCIATED when it is inside
-    some gate, else NEW (or `unmatched` for every unpaired row when given)."""
-    ids = problem.landmarks.ids
-    assignment = np.where(columns >= 0, ids[np.maximum(columns, 0)] if len(ids) else NEW, NEW)
-    unpaired = columns < 0
-    if unmatched is not None:
-        assignment[unpaired] = unmatched
-    else:
-        inside = gated.any(axis=1) if gated.shape[1] else np.zeros(len(columns), dtype=bool)
-        assignment[unpaired & inside] = UNASSOCIATED
-    return assignment.astype(np.int64)
+def nearest_within(problem: AssociationProblem, name: str, bound: float) -> Association:
+    """Each observation paired with its smallest-NIS landmark where that NIS is at most `bound`,
+    else NEW: result(problem, name, nearest_neighbours(nis, nis <= bound, False), nis <= bound)
+    in seven array operations (the NIS holds no NaN, so the first smallest is the first smallest
+    gated one)."""
+    nis = problem.nis
+    k, n = nis.shape
+    if n == 0:
+        return Association(np.full(k, NEW, dtype=np.int64), np.full(k, np.nan), name)
+    best = nis.argmin(axis=1)
+    smallest = nis[np.arange(k), best]
+    inside = smallest <= bound
+    return Association(assignment=np.where(inside, problem.landmarks.ids[best], NEW),
+                       nis=np.where(inside, smallest, np.nan), algorithm=name)
+
+
+def label(problem: AssociationProblem, rows: np.ndarray, columns: np.ndarray,
+          gated: np.ndarray, unmatched: int | None = None) -> np.ndarray:
+    """Landmark ids (K,) with the rows (P,) paired to the landmark columns (P,); an unpaired row
+    is UNASSOCIATED when it is inside some gate (gated (K, N)), else NEW (or `unmatched` for
+    every unpaired row when given)."""
+    assignment = np.full(len(gated), NEW if unmatched is None else unmatched, dtype=np.int64)
+    if unmatched is None and gated.size:
+        assignment[gated.any(axis=1)] = UNASSOCIATED
+    assignment[rows] = problem.landmarks.ids[columns]
+    return assignment
 
 
 def result(problem: AssociationProblem, name: str, columns: np.ndarray, gated: np.ndarray,
            unmatched: int | None = None, **extras) -> Association:
-    """The Association for chosen columns, with the individual NIS of each chosen pair."""
+    """The Association for the chosen column of each row (K,) (NO_LANDMARK: none), with the
+    individual NIS of each chosen pair; gated (K, N) as for `label`."""
+    rows = (columns >= 0).nonzero()[0]
+    chosen = columns[rows]
     nis = np.full(len(columns), np.nan)
     if problem.has_covariances:
-        paired = np.flatnonzero(columns >= 0)
-        nis[paired] = problem.nis[paired, columns[paired]]
-    return Association(assignment=label(problem, columns, gated, unmatched), nis=nis,
-                       algorithm=name, extras=dict(extras))
+        nis[rows] = problem.nis[rows, chosen]
+    return Association(assignment=label(problem, rows, chosen, gated, unmatched), nis=nis,
+                       algorithm=name, extras=extras)

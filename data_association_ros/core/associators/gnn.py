@@ -16,8 +16,8 @@ def run(problem, gate_probability: float, min_innovation_variance: float):
     columns = np.full(k, NO_LANDMARK, dtype=np.intp)
     if k and n and gated.any():
         cost = np.full((k, n + k), np.inf)
-        cost[:, :n] = np.where(gated, nis, np.inf)
-        cost[np.arange(k), n + np.arange(k)] = gate
+        np.copyto(cost[:, :n], nis, where=gated)
+        cost[:, n:].flat[::k + 1] = gate   # each observation's own 'unpaired' column
         rows, cols = linear_sum_assignment(cost)
         real = cols < n
         columns[rows[real]] = cols[real]

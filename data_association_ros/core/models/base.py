@@ -50,6 +50,20 @@ class MeasurementModel:
         Jacobians d/dz (K, d, m) and d/dpose (K, d, 3)."""
         raise NotImplementedError
 
+    def in_map(self, values: np.ndarray, covariances: Optional[np.ndarray],
+               pose: Optional[np.ndarray], pose_covariance: Optional[np.ndarray]
+               ) -> tuple[np.ndarray, Optional[np.ndarray]]:
+        """Map-frame positions (K, d) of measurements (K, m) by `inverse`, and their
+        covariances G_z R G_z^T + G_pose P G_pose^T (K, d, d) for R = covariances (K, m, m) and
+        P = pose_covariance (3, 3) (None: that term left out; covariances None: None)."""
+        positions, j_z, j_pose = self.inverse(values, pose)
+        if covariances is None:
+            return positions, None
+        out = j_z @ covariances @ np.swapaxes(j_z, 1, 2)
+        if pose_covariance is not None:
+            out = out + j_pose @ pose_covariance @ np.swapaxes(j_pose, 1, 2)
+        return positions, out
+
     def innovation(self, values: np.ndarray, predictions: np.ndarray) -> np.ndarray:
         """nu[i, j] = z_i - h_j, angular components wrapped: (K, m), (N, m) -> (K, N, m) (a view
         of innovation_components)."""

@@ -34,6 +34,12 @@ class RangeBearingModel(MeasurementModel):
         h_pose[:, 1, 2] = -1.0
         return h, h_landmark, h_pose
 
+    def in_map(self, values, covariances, pose, pose_covariance):
+        kernels = jit.problem_kernels() if covariances is not None else None
+        if kernels is not None:
+            return kernels.run_range_bearing_in_map(values, covariances, pose, pose_covariance)
+        return super().in_map(values, covariances, pose, pose_covariance)
+
     def inverse(self, values, pose):
         r, b = values[:, 0], values[:, 1]
         angle = pose[2] + b

@@ -1,0 +1,190 @@
+"""The per-scan fast paths of association_node (issue 18) against the code they stand in for:
+mahalanobis_nn's nearest-within answer, the fused range-bearing kernel, observations in the map
+frame without the pose term, time matching, the NaN test of array_to_cloud, parameters resolved
+once, the outcome counts, and the candidate state when confirmed landmarks are not wanted.  Each test is fast (< 1 s)."""
+import re
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from std_msgs.msg import Header
+
+from msg_adapters import array_to_cloud, cloud_points, cloud_to_array, observations_from_points
+from msg_adapters.pointcloud import fields_of
+
+from data_association_ros import Observations, RobotPose
+from data_association_ros.bag.offline import node_config
+from data_association_ros.core import NEW, UNASSOCIATED, InvalidInputError, jit
+from data_association_ros.core.api import _resolve
+from data_association_ros.core.associators import REGISTRY
+from data_association_ros.core.associators.base import nearest_neighbours, nearest_within, result
+from data_association_ros.core.initialisation import observations_in_map
+from data_association_ros.core.parameters import resolve
+from data_association_ros.core.problem import AssociationProblem
+from data_association_ros.pipelines.association import AssociationPipeline
+from data_association_ros.pipelines.stamped_buffer import StampedBuffer
+from data_association_ros.pipelines.statistics import AssociationStatistics
+from problem_factory import random_range_bearing_problem
+
+NIS_VALUES = st.one_of(st.floats(0.0, 20.0), st.just(np.inf), st.sampled_from([1.0, 9.21]))
+
+
+def range_bearing_problem(seed: int, joint: bool) -> AssociationProblem:
+    """A random range-bearing problem (problem_factory), per-observation R on odd seeds."""
+    rng = np.random.default_rng(seed)
+    landmarks, observations, pose, state, _ = random_range_bearing_problem(
+        rng, int(rng.integers(1, 25)), int(rng.integers(1, 12)), int(rng.integers(0, 4)),
+        int(rng.integers(0, 4)), joint=joint)
+    if seed % 2:
+        observations = Observations(observations.values, observations.covariances * rng.uniform(
+            0.2, 5.0, (len(observations), 1, 1)), observations.model)
+    return AssociationProblem(landmarks, observations, pose, state, [0.0, 1e-9, 0.3][seed % 3])
+
+
+@settings(max_examples=60, deadline=None)
+@given(k=st.integers(0, 6), n=st.integers(0, 6), data=st.data())
+def test_nearest_within_is_nearest_neighbours_inside_the_gate(k, n, data):
+    """Ties, inf and values on the bound included; K = 0 and N = 0 too."""
+    nis = np.array(data.draw(st.lists(NIS_VALUES, min_size=k * n, max_size=k * n))).reshape(k, n)
+    problem = range_bearing_problem(0, False)
+    problem.__dict__['nis'] = nis
+    problem.landmarks = problem.landmarks.subset(np.arange(min(n, len(problem.landmarks))))
+    if len(problem.landmarks) < n:
+        return
+    gated = nis <= 9.21
+    expected = result(problem, 'x', nearest_neighbours(nis, gated, False), gated)
+    got = nearest_within(problem, 'x', 9.21)
+    np.testing.assert_array_equal(got.assignment, expected.assignment)
+    np.testing.assert_array_equal(got.nis, expected.nis)
+    assert got.assignment.dtype == np.int64 and not (got.assignment == UNASSOCIATED).any()
+
+
+@pytest.mark.skipif(jit.problem_kernels() is None, reason='numba kernels not in use')
+@pytest.mark.parametrize('seed', range(12))
+def test_fused_range_bearing_kernel_is_the_three_kernels(seed):
+    """One dispatch instead of three, bit for bit (marginal and joint covariances, shared and
+    per-observation R, with and without a variance floor)."""
+    fused, separate = range_bearing_problem(seed, seed % 4 > 1), \
+        range_bearing_problem(seed, seed % 4 > 1)
+    separate.predictions   # computed first: nis then takes the three kernels one by one
+    np.testing.assert_array_equal(fused.nis, separate.nis)
+    np.testing.assert_array_equal(fused.prediction_covariances, separate.prediction_covariances)
+    for a, b in zip(fused._prediction, separate._prediction):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_observations_in_map_kernel_and_without_the_pose_term(seed):
+    """range_bearing_in_map against the numpy form (rounding of the 2 x 2 products only), and
+    pose_uncertainty False against the zero pose covariance it replaces (exactly)."""
+    problem = range_bearing_problem(seed, False)
+    observations, pose = problem.observations, problem.pose
+    for uncertain in (True, False):
+        positions, covariances = observations_in_map(observations, pose, uncertain)
+        with jit.compiled(False):
+            numpy_positions, numpy_covariances = observations_in_map(observations, pose, uncertain)
+        np.testing.assert_array_equal(positions, numpy_positions)
+        np.testing.assert_allclose(covariances, numpy_covariances, rtol=1e-12, atol=1e-15)
+    with jit.compiled(False):
+        _, without = observations_in_map(observations, pose, False)
+        _, zero_pose = observations_in_map(observations, RobotPose(pose.mean), True)
+    np.testing.assert_array_equal(without, zero_pose)
+    empty = Observations(np.zeros((0, 2)), np.zeros((0, 2, 2)), 'range_bearing')
+    assert [a.shape for a in observations_in_map(empty, pose, False)] == [(0, 2), (0, 2, 2)]
+
+
+@settings(max_examples=80, deadline=None)
+@given(stamps=st.lists(st.integers(0, 50), min_size=1, max_size=8, unique=True),
+       query=st.integers(-10, 60), tolerance=st.integers(0, 30))
+def test_nearest_stamp_is_the_first_smallest_difference(stamps, query, tolerance):
+    buffer = StampedBuffer(20)
+    for stamp in stamps:
+        buffer.add(stamp, stamp)
+    ordered = sorted(stamps)
+    best = min(ordered, key=lambda s: abs(s - query))   # the older one on a tie
+    expected = best if abs(best - query) <= tolerance else None
+    assert buffer.nearest(query, tolerance)[0] == expected
+
+
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(0, 5), data=st.data())
+def test_is_dense_and_points_of_any_float_layout(rows, data):
+    """is_dense (one reduction per run of adjacent float fields) against a per-field NaN test;
+    cloud_points reads what cloud_to_array copies."""
+    layout = data.draw(st.lists(st.sampled_from(['<f4', '<f8', '<i4', '<u1']), min_size=1,
+                                max_size=5))
+    values = st.floats(allow_nan=True, allow_infinity=True, width=32)
+    points = np.zeros(rows, dtype=[(f'f{i}', kind) for i, kind in enumerate(layout)])
+    for i, kind in enumerate(layout):
+        if kind[1] == 'f':
+            points[f'f{i}'] = data.draw(st.lists(values, min_size=rows, max_size=rows))
+    msg = array_to_cloud(points)
+    assert msg.is_dense == (not any(np.isnan(points[name]).any() for name in points.dtype.names
+                                    if points.dtype[name].kind == 'f'))
+    view, copy = cloud_points(msg), cloud_to_array(msg)
+    assert not view.flags.writeable and fields_of(msg) == points.dtype.names
+    for name in points.dtype.names:
+        np.testing.assert_array_equal(view[name], copy[name])
+
+
+def test_observations_keep_their_checks():
+    """Read into preallocated arrays: NaN is rejected naming the index, an empty cloud needs
+    no fields, missing covariance fields fall back to the (cached, read-only) noise."""
+    points = np.zeros(3, dtype=[('range', '<f4'), ('bearing', '<f4')])
+    points['range'] = [1.0, np.nan, 2.0]
+    with pytest.raises(Exception, match=r'observations.values\[1, 0\]: not finite'):
+        observations_from_points(points, 'range_bearing', [0.01])
+    assert len(observations_from_points(np.zeros(0, dtype=[('a', '<f4')]), 'range_bearing',
+                                        [0.01])) == 0
+    points['range'][1] = 3.0
+    observations = observations_from_points(points, 'range_bearing', [0.01, 1e-4])
+    np.testing.assert_array_equal(observations.covariances, np.tile(np.diag([0.01, 1e-4]),
+                                                                    (3, 1, 1)))
+    assert not (observations.values.flags.writeable or observations.covariances.flags.writeable)
+
+
+@pytest.mark.parametrize('values', [{'gate_probability': 0.9}, {'one_to_one': True},
+                                    {'one_to_one': 1}, {'one_to_one': [1]}, {'nope': 1.0},
+                                    {'gate_probability': float('nan')}, {}])
+def test_parameters_resolved_once_answer_as_resolve(values):
+    """associate's cached resolve: the same values or error as resolve, True apart from 1, and a
+    dict of the caller's own."""
+    specs = REGISTRY['mahalanobis_nn'].parameters
+    try:
+        expected = resolve(specs, dict(values), 'mahalanobis_nn')
+    except InvalidInputError as error:
+        with pytest.raises(InvalidInputError, match=re.escape(str(error))):
+            _resolve('mahalanobis_nn', dict(values))
+        return
+    for _ in range(2):
+        got = _resolve('mahalanobis_nn', dict(values))
+        assert got == expected and all(type(got[k]) is type(expected[k]) for k in got)
+        got.clear()
+
+
+def test_outcome_counts():
+    statistics = AssociationStatistics()
+    statistics.record_answer(np.array([3, NEW, UNASSOCIATED, 0, NEW], dtype=np.int64), 1.0, False)
+    assert dict(statistics.outcomes) == {'paired': 2, 'new': 2, 'unassociated': 1}
+
+
+def test_confirmed_landmarks_not_wanted_move_the_state_alike():
+    """confirm_hits 1: without new_landmarks subscribers the confirmed landmarks are only
+    counted; ids, totals and diagnostics stay those of a pipeline that builds them."""
+    config = node_config('mahalanobis_nn', {'confirm_hits': 1})
+    built, counted = AssociationPipeline(config), AssociationPipeline(config)
+    for k, points in enumerate([[[5.0, 5.0], [0.1, 0.0]], [[6.0, 6.0], [0.0, 0.1], [9.0, 1.0]]]):
+        header = Header(frame_id='map')
+        header.stamp.sec = 1 + k
+        landmarks = array_to_cloud({'id': np.array([7]), 'x': np.array([0.0]),
+                                    'y': np.array([0.0])}, header)
+        scan = array_to_cloud({'x': np.array(points)[:, 0], 'y': np.array(points)[:, 1]}, header)
+        for pipeline in (built, counted):
+            pipeline.on_landmarks(landmarks)
+        full, bare = built.answer(scan), counted.answer(scan, wanted=set())
+        assert bare.new_landmarks is None and len(cloud_to_array(full.new_landmarks)) == k + 1
+    for name in ('scan', '_next_id', 'confirmed_total', 'expired_total'):
+        assert getattr(built.candidates, name) == getattr(counted.candidates, name), name
+    assert {k: v for k, v in built.statistics.key_values().items() if 'latency' not in k} == \
+        {k: v for k, v in counted.statistics.key_values().items() if 'latency' not in k}
