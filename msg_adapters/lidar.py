@@ -41,7 +41,7 @@ def points_from_scan(msg: LaserScan) -> np.ndarray:
     if len(ranges) > 1 and msg.angle_increment == 0:
         raise InvalidInputError('scan: angle_increment is 0')
     low = msg.range_min if np.isfinite(msg.range_min) else 0.0
-    high = msg.range_max if np.isfinite(msg.range_max) and msg.range_max > 0 else np.inf
+    high = range_max_of(msg) or np.inf
     with np.errstate(invalid='ignore'):
         valid = np.isfinite(ranges) & (ranges >= low) & (ranges <= high)
     ranges = np.where(valid, ranges, np.nan)

@@ -20,7 +20,6 @@ def observations_in_map(observations: Observations, pose: Optional[RobotPose],
     if len(observations) == 0:
         d = model.landmark_dim(observations.dim)
         return np.zeros((0, d)), np.zeros((0, d, d))
-    if pose is None:
-        return model.in_map(observations.values, observations.covariances, None, None)
-    return model.in_map(observations.values, observations.covariances, pose.mean,
-                        pose.covariance if pose_uncertainty else None)
+    return model.in_map(observations.values, observations.covariances,
+                        None if pose is None else pose.mean,
+                        pose.covariance if pose is not None and pose_uncertainty else None)

@@ -14,7 +14,7 @@ from typing import Optional
 
 import numpy as np
 
-from .clustering import FACE_STEPS
+from .clustering import FACE_SLOPE, FACE_STEPS
 
 RANGE_SHARE = 0.95
 """beams: a beam without a return is free up to this share of the sensor's range_max."""
@@ -199,15 +199,15 @@ def carve(low: np.ndarray, high: np.ndarray, seen_low: np.ndarray, seen_high: np
     return low, high
 
 
-FACE_POINTS, FACE_STEP_SINE, FACE_ALIGNMENT = 5, np.sin(np.deg2rad(20.0)), np.cos(np.deg2rad(10.0))
+FACE_POINTS, FACE_ALIGNMENT = 5, np.cos(np.deg2rad(10.0))
 FACE_NOISE_FLOOR, FACE_SLACK_STDS = 0.2, 1.0
 """face_end_limit: the face's line is fitted to at most FACE_POINTS returns next to the
 cluster end, every step between them within 20 deg of it and 0.5-2 times the one before
-(clustering.FACE_STEPS: the spacing along one face changes slowly; a corner among them is no
-line),
-and it must run within 10 deg of one of the box's axes (a run over a corner, the rear face's
-last returns and the side's first, is no face of the box); the std of the returns about it
-is taken as at least FACE_NOISE_FLOOR x the tolerance."""
+(clustering.FACE_SLOPE and FACE_STEPS, as for a face going on: the spacing along one face
+changes slowly; a corner among them is no line), and it must run within 10 deg of one of the
+box's axes (a run over a corner, the rear face's last returns and the side's first, is no face
+of the box); the std of the returns about it is taken as at least FACE_NOISE_FLOOR x the
+tolerance."""
 
 
 def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, free: float,
@@ -235,26 +235,25 @@ def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, 
     direction = np.asarray(direction, float)
     if len(face) < 3 or not np.all(np.isfinite(direction)) or np.isnan(free):
         return None
-    line = None
-    for count in range(min(len(face), FACE_POINTS), 2, -1):
+    for count in range(min(len(face), FACE_POINTS), 2, -1):  # the longest run that is a line
         run = face[-count:]
         centre = run.mean(axis=0)
-        _, _, axes = np.linalg.svd(run - centre)
-        normal = axes[1]
+        along, normal = np.linalg.svd(run - centre)[2]
         steps = np.diff(run, axis=0)
         lengths = np.hypot(steps[:, 0], steps[:, 1])
         residuals = (run - centre) @ normal
         ratios = lengths[1:] / np.maximum(lengths[:-1], 1e-12)
         if np.max(np.abs(residuals)) <= tolerance and np.all(
-                np.abs(steps @ normal) <= FACE_STEP_SINE * lengths) and np.all(
+                np.abs(steps @ normal) <= FACE_SLOPE * np.abs(steps @ along)) and np.all(
                 (ratios >= FACE_STEPS[0]) & (ratios <= FACE_STEPS[1])):
-            line = (centre, axes[0], normal, (run - centre) @ axes[0],
-                    max(float(np.sqrt(residuals @ residuals / (count - 2))),
-                        FACE_NOISE_FLOOR * tolerance))
             break
-    if line is None:
+    else:
         return None
-    centre, along, normal, spread, noise = line
+    spread = (run - centre) @ along
+    extent = float(np.ptp(spread))
+    if extent < 2 * tolerance:
+        return None  # too short a run to give a direction
+    noise = max(float(np.sqrt(residuals @ residuals / (count - 2))), FACE_NOISE_FLOOR * tolerance)
     k = int(np.argmax(np.abs(along)))
     if abs(along[k]) < FACE_ALIGNMENT:
         return None
@@ -267,9 +266,8 @@ def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, 
     point = origin + crossing * direction
     side = int(face[-1, k] > centre[k])
     offset = float((point - centre) @ along)  # the line's std across at c, over the sine
-    extent = float(np.ptp(spread))
-    if extent < 2 * tolerance or abs(offset) - extent / 2 > extent:
-        return None  # too short a run to give a direction, or c farther than it is long
+    if abs(offset) - extent / 2 > extent:
+        return None  # c farther beyond the run than it is long
     slack = FACE_SLACK_STDS * noise * np.sqrt(1.0 / len(spread) + offset ** 2 / (spread @ spread)) \
         / abs(towards)
     return k, side, float(point[k] + (slack if side else -slack) * abs(along[k]))
