@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.optimize import linear_sum_assignment
+from scipy.stats import chi2
 from std_msgs.msg import Header
 
 from msg_adapters import array_to_cloud, cloud_points, cloud_to_array, observations_from_points
@@ -188,3 +190,40 @@ def test_confirmed_landmarks_not_wanted_move_the_state_alike():
         assert getattr(built.candidates, name) == getattr(counted.candidates, name), name
     assert {k: v for k, v in built.statistics.key_values().items() if 'latency' not in k} == \
         {k: v for k, v in counted.statistics.key_values().items() if 'latency' not in k}
+
+
+
+def full_matrix_gnn(nis: np.ndarray, gate: float) -> np.ndarray:
+    """gnn's columns as first built: the Hungarian method on the whole K x (N + K) matrix."""
+    k, n = nis.shape
+    columns = np.full(k, -1, dtype=np.intp)
+    gated = nis <= gate
+    if k and n and gated.any():
+        cost = np.full((k, n + k), np.inf)
+        np.copyto(cost[:, :n], nis, where=gated)
+        cost[:, n:].flat[::k + 1] = gate
+        rows, cols = linear_sum_assignment(cost)
+        columns[rows[cols < n]] = cols[cols < n]
+    return columns
+
+
+@settings(max_examples=300, deadline=None)
+@given(k=st.integers(0, 9), n=st.integers(0, 9), ties=st.booleans(), data=st.data())
+def test_gnn_solves_only_competing_pairs_as_the_whole_matrix(k, n, ties, data):
+    """Pairs alone in their row and column are decided without the Hungarian method: the same
+    pairs as the whole matrix, also where whole numbers and values on the gate make equal-cost
+    optima."""
+    gate = chi2.ppf(0.99, 2)
+    values = st.sampled_from([0.0, 1.0, 2.0, 3.0, 4.5, 6.0, gate, 10.0, np.inf]) if ties \
+        else st.floats(0.0, 30.0)
+    nis = np.array(data.draw(st.lists(values, min_size=k * n, max_size=k * n)),
+                   dtype=float).reshape(k, n)
+    problem = range_bearing_problem(0, False)
+    problem.__dict__['nis'] = nis
+    problem.landmarks = problem.landmarks.subset(np.arange(min(n, len(problem.landmarks))))
+    if len(problem.landmarks) < n:
+        return
+    gated = nis <= gate
+    expected = result(problem, 'gnn', full_matrix_gnn(nis, gate), gated)
+    got = REGISTRY['gnn'].run(problem, gate_probability=0.99, min_innovation_variance=0.0)
+    np.testing.assert_array_equal(got.assignment, expected.assignment)
