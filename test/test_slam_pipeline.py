@@ -233,3 +233,20 @@ def test_odometry_without_scans_is_folded(monkeypatch, ttk_steps):
         slam.on_odometry(odometry)
     assert len(slam.odometry_queue) == 3
     assert slam.statistics.dropped['odometry_folded_without_scan'] == 4
+
+
+def test_odometry_yaw_noise_scale_multiplies_the_heading_variance_only():
+    """odometry_yaw_noise_scale s: the increment covariance's heading variance times s, its
+    heading row and column times sqrt(s), x and y untouched (on top of odometry_noise_scale and
+    before min_motion_variance)."""
+    noise = np.array([[4e-4, 1e-5, 2e-6], [1e-5, 1e-4, 3e-6], [2e-6, 3e-6, 4e-6]])
+    base = SlamPipeline(slam_config('node', {}))._motion_noise(noise)
+    np.testing.assert_allclose(base, noise + 1e-9 * np.eye(3), rtol=1e-12)
+    scaled = SlamPipeline(slam_config('node', {'odometry_yaw_noise_scale': 16.0,
+                                               'odometry_noise_scale': 2.0,
+                                               'min_motion_variance': 0.0}))._motion_noise(noise)
+    factor = np.array([1.0, 1.0, 4.0])
+    np.testing.assert_allclose(scaled, 2.0 * noise * np.outer(factor, factor), rtol=1e-12)
+    assert scaled[2, 2] == pytest.approx(32.0 * noise[2, 2])
+    assert scaled[0, 0] == pytest.approx(2.0 * noise[0, 0])
+    assert np.all(np.linalg.eigvalsh(scaled) > 0)

@@ -83,6 +83,12 @@ SLAM_PARAMETERS = (
                   '(inflate it when the odometry is biased or its covariance optimistic)',
                   spec=ParameterSpec('odometry_noise_scale', 1.0, '', low=0.0, high=1e6,
                                      low_open=True)),
+    NodeParameter('odometry_yaw_noise_scale', 1.0, 'multiplies the heading variance of every '
+                  'odometry increment on top of odometry_noise_scale (its row and column by the '
+                  'square root): for odometry whose heading drifts more than its covariance '
+                  'says while its distance is fine (Victoria Park: docs/slam.md)',
+                  spec=ParameterSpec('odometry_yaw_noise_scale', 1.0, '', low=0.0, high=1e6,
+                                     low_open=True)),
     NodeParameter('min_motion_variance', 1e-9, 'added to the diagonal of every odometry '
                   'increment covariance [m^2, rad^2]',
                   spec=ParameterSpec('min_motion_variance', 1e-9, '', low=0.0, high=1.0)),
@@ -324,8 +330,7 @@ class SlamPipeline:
         if self.slam is None:
             self.slam = self._start(model)
         increment, noise = self.odometry.take()
-        self.slam.predict(increment, noise * self.config['odometry_noise_scale']
-                          + np.eye(3) * self.config['min_motion_variance'])
+        self.slam.predict(increment, self._motion_noise(noise))
         stamp = stamp_ns(msg.header)
         self.current = CurrentScan(stamp, msg.header, observations)
         self.statistics.scans += 1
@@ -356,6 +361,14 @@ class SlamPipeline:
         if answer is not None:
             out += self._apply_answer(answer)
         return out
+
+    def _motion_noise(self, noise: np.ndarray) -> np.ndarray:
+        """The odometry increment covariance the filter predicts with: D Q D odometry_noise_scale
+        + min_motion_variance I, D = diag(1, 1, sqrt(odometry_yaw_noise_scale))."""
+        c = self.config
+        scale = np.array([1.0, 1.0, np.sqrt(c['odometry_yaw_noise_scale'])])
+        return (noise * np.outer(scale, scale) * c['odometry_noise_scale']
+                + np.eye(3) * c['min_motion_variance'])
 
     def _management_config(self) -> LandmarkManagementConfig:
         """The landmark-management parameters now (view_range 0: the farthest observation seen
