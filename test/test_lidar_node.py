@@ -10,7 +10,7 @@ from data_association_ros.bag.lidar_eval import (BAG, estimate_from_tracks, read
                                                  run_offline, score)
 from data_association_ros.bag.reader import BagReader
 from data_association_ros.core.lidar import TrackerConfig
-from data_association_ros.nodes.lidar_tracker_node import LidarTrackerNode
+from data_association_ros.nodes.lidar_tracker_node import MAX_WAITING_SCANS, LidarTrackerNode
 from msg_adapters import cloud_to_array
 from ros_harness import Graph, cloud, wait_reply
 from test_node import set_parameters
@@ -161,3 +161,44 @@ def test_moving_sensor_odometry_in_tracks_in_the_odometry_frame(graph):
     result = score(scans, estimates)[1]
     assert result.position_rmse < 0.1 and result.heading_rmse_deg < 3.0, result
     assert result.id_switches == 0 and result.coverage > 0.8, result
+
+
+def test_scans_wait_for_odometry_that_lags_a_burst_behind(graph):
+    """Scans of 0.5 s (20 at 40 Hz) arrive before the odometry of their time, which comes after
+    them (a node behind an 80 Hz odometry stream takes one odometry message per executor round):
+    every scan waits and is tracked once its odometry is in, none dropped, the same tracks as
+    offline.  With at most 8 waiting scans (before) the first 12 were processed without their
+    odometry and dropped."""
+    from nav_msgs.msg import Odometry
+
+    from data_association_ros.bag.lidar_eval import scans_from_messages
+    from data_association_ros.bag.lidar_motion import Pieces
+    from data_association_ros.bag.lidar_random_scene import CAR_LIDAR, Scene, SceneObject
+    scene = Scene([SceneObject(1, 4.5, 1.8, Pieces((14.0, -8.0, np.pi / 2),
+                                                   ((3.0, 6.0, 0.0),)))],
+                  Pieces((0.0, 0.0, 0.0), ((3.0, 5.0, 0.1),)), np.zeros((0, 2, 2)), CAR_LIDAR,
+                  0.5, 0)
+    messages = list(scene.messages())
+    odometry_messages = [m for t, m, _ in messages if t == '/odometry']
+    scan_messages = [m for t, m, _ in messages if t == '/scan']
+    assert 8 < len(scan_messages) <= MAX_WAITING_SCANS
+    odometry = graph.publisher(Odometry, 'odometry')
+    graph.wait_for_subscribers(['odometry'])
+    odometry.publish(odometry_messages[0])
+    assert graph.spin_until(lambda: graph.node.odometry_count >= 1, 5.0)
+    for sent, msg in enumerate(scan_messages, 1):
+        graph.publisher(LaserScan, 'scan').publish(msg)
+        assert graph.spin_until(lambda: len(graph.node.waiting) + len(
+            graph.received['tracks']) + graph.node.invalid >= sent, 5.0)
+    assert len(graph.node.waiting) == len(scan_messages) and graph.node.invalid == 0
+    for count, msg in enumerate(odometry_messages[1:], 2):
+        odometry.publish(msg)
+        assert graph.spin_until(lambda: graph.node.odometry_count >= count, 5.0)
+    replies = graph.received['tracks']
+    assert graph.spin_until(lambda: len(replies) >= len(scan_messages), 5.0)
+    assert graph.node.invalid == 0 and not graph.node.waiting
+    offline, _ = run_offline(scans_from_messages(messages), TrackerConfig())
+    for reply, core in zip(replies, offline):
+        live = estimate_from_tracks(reply)
+        np.testing.assert_array_equal(live.ids, core.ids)
+        np.testing.assert_allclose(live.states, core.states, atol=1e-4, rtol=1e-5)
