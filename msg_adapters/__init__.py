@@ -11,5 +11,5 @@ __all__ = ['PointCloudFormatError', 'array_to_cloud', 'association_markers', 'ca
            'cloud_points', 'cloud_to_array', 'correspondences_cloud', 'detect_model',
            'diagnostics_message', 'landmarks_from_cloud', 'landmarks_from_points',
            'landmarks_from_pose_array', 'new_landmarks_cloud', 'observations_from_cloud',
-           'observations_from_points', 'odometry_message', 'point_map_cloud', 'pose_from_odometry', 'state_covariance_cloud',
-           'state_covariance_from_cloud', 'transform_message']
+           'observations_from_points', 'odometry_message', 'point_map_cloud', 'pose_from_odometry',
+           'state_covariance_cloud', 'state_covariance_from_cloud', 'transform_message']

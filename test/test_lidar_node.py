@@ -123,20 +123,37 @@ def test_points_input_and_runtime_parameters(graph):
     assert reply.header.frame_id == 'laser' and len(tracks) >= 2
 
 
-def test_moving_sensor_odometry_in_tracks_in_the_odometry_frame(graph):
-    """A generated scene with a moving sensor (1.5 s): odometry and scans in log order (a scan
-    waits in the node until the odometry of its last beam arrived); the tracks are in `odom`,
-    equal to the core's offline ones, and the car's track matches the truth."""
-    from nav_msgs.msg import Odometry
-
-    from data_association_ros.bag.lidar_eval import scans_from_messages
+def moving_sensor_messages(duration: float) -> list:
+    """(topic, message, log time) of a generated scene: a car crossing ahead of a sensor that
+    drives and turns (odometry and scans, 40 Hz), `duration` seconds."""
     from data_association_ros.bag.lidar_motion import Pieces
     from data_association_ros.bag.lidar_random_scene import CAR_LIDAR, Scene, SceneObject
     scene = Scene([SceneObject(1, 4.5, 1.8, Pieces((14.0, -8.0, np.pi / 2),
                                                    ((3.0, 6.0, 0.0),)))],
                   Pieces((0.0, 0.0, 0.0), ((3.0, 5.0, 0.1),)), np.zeros((0, 2, 2)), CAR_LIDAR,
-                  1.5, 0)
-    messages = list(scene.messages())
+                  duration, 0)
+    return list(scene.messages())
+
+
+def assert_tracks_as_offline(replies: list, messages: list) -> tuple[list, list]:
+    """Each `tracks` reply equals the core's offline tracks of the same scan; (scans, the
+    replies' estimates)."""
+    from data_association_ros.bag.lidar_eval import scans_from_messages
+    scans = scans_from_messages(messages)
+    estimates = [estimate_from_tracks(r) for r in replies]
+    offline, _ = run_offline(scans, TrackerConfig())
+    for live, core in zip(estimates, offline):
+        np.testing.assert_array_equal(live.ids, core.ids)
+        np.testing.assert_allclose(live.states, core.states, atol=1e-4, rtol=1e-5)
+    return scans, estimates
+
+
+def test_moving_sensor_odometry_in_tracks_in_the_odometry_frame(graph):
+    """A generated scene with a moving sensor (1.5 s): odometry and scans in log order (a scan
+    waits in the node until the odometry of its last beam arrived); the tracks are in `odom`,
+    equal to the core's offline ones, and the car's track matches the truth."""
+    from nav_msgs.msg import Odometry
+    messages = moving_sensor_messages(1.5)
     odometry = graph.publisher(Odometry, 'odometry')
     graph.wait_for_subscribers(['odometry'])
     replies = graph.received['tracks']
@@ -152,12 +169,7 @@ def test_moving_sensor_odometry_in_tracks_in_the_odometry_frame(graph):
             assert graph.spin_until(lambda: len(replies) + len(graph.node.waiting) >= sent, 5.0)
     assert graph.spin_until(lambda: len(replies) >= sent, 5.0) and graph.node.invalid == 0
     assert {r.header.frame_id for r in replies} == {'odom'}
-    scans = scans_from_messages(messages)
-    estimates = [estimate_from_tracks(r) for r in replies]
-    offline, _ = run_offline(scans, TrackerConfig())
-    for live, core in zip(estimates, offline):
-        np.testing.assert_array_equal(live.ids, core.ids)
-        np.testing.assert_allclose(live.states, core.states, atol=1e-4, rtol=1e-5)
+    scans, estimates = assert_tracks_as_offline(replies, messages)
     result = score(scans, estimates)[1]
     assert result.position_rmse < 0.1 and result.heading_rmse_deg < 3.0, result
     assert result.id_switches == 0 and result.coverage > 0.8, result
@@ -170,15 +182,7 @@ def test_scans_wait_for_odometry_that_lags_a_burst_behind(graph):
     offline.  With at most 8 waiting scans (before) the first 12 were processed without their
     odometry and dropped."""
     from nav_msgs.msg import Odometry
-
-    from data_association_ros.bag.lidar_eval import scans_from_messages
-    from data_association_ros.bag.lidar_motion import Pieces
-    from data_association_ros.bag.lidar_random_scene import CAR_LIDAR, Scene, SceneObject
-    scene = Scene([SceneObject(1, 4.5, 1.8, Pieces((14.0, -8.0, np.pi / 2),
-                                                   ((3.0, 6.0, 0.0),)))],
-                  Pieces((0.0, 0.0, 0.0), ((3.0, 5.0, 0.1),)), np.zeros((0, 2, 2)), CAR_LIDAR,
-                  0.5, 0)
-    messages = list(scene.messages())
+    messages = moving_sensor_messages(0.5)
     odometry_messages = [m for t, m, _ in messages if t == '/odometry']
     scan_messages = [m for t, m, _ in messages if t == '/scan']
     assert 8 < len(scan_messages) <= MAX_WAITING_SCANS
@@ -197,8 +201,4 @@ def test_scans_wait_for_odometry_that_lags_a_burst_behind(graph):
     replies = graph.received['tracks']
     assert graph.spin_until(lambda: len(replies) >= len(scan_messages), 5.0)
     assert graph.node.invalid == 0 and not graph.node.waiting
-    offline, _ = run_offline(scans_from_messages(messages), TrackerConfig())
-    for reply, core in zip(replies, offline):
-        live = estimate_from_tracks(reply)
-        np.testing.assert_array_equal(live.ids, core.ids)
-        np.testing.assert_allclose(live.states, core.states, atol=1e-4, rtol=1e-5)
+    assert_tracks_as_offline(replies, messages)

@@ -192,7 +192,6 @@ def test_confirmed_landmarks_not_wanted_move_the_state_alike():
         {k: v for k, v in counted.statistics.key_values().items() if 'latency' not in k}
 
 
-
 def full_matrix_gnn(nis: np.ndarray, gate: float) -> np.ndarray:
     """gnn's columns as first built: the Hungarian method on the whole K x (N + K) matrix."""
     k, n = nis.shape

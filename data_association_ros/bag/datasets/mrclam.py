@@ -39,7 +39,7 @@ for every measurement.  The same pose-fix check gives range residuals of std 0.1
 tailed; MAD-based 0.11 m) and bearing residuals of std 1.1 deg (after a degrees-of-freedom
 correction).  The bearing sigma was 2 deg (a margin) until issue 20's second pass: with it the
 oracle's NIS / dof was 0.33 (robot 1) and the wide bearing gates let wrong pairs in; with 1.1 deg
-the closed loop (jcbb) goes 62.68 -> 70.23 % on robot 1 and 65.07 -> 70.00 % on robot 2, the
+the closed loop (jcbb) goes 62.68 -> 70.23 % on robot 1 and 65.07 -> 68.10 % on robot 2, the
 oracle 97.89 -> 98.43 and 98.52 -> 99.03 % (docs/slam.md).
 
 Truth: barcode -> subject via Barcodes.dat.  Subjects 6-20 (the static landmarks) -> landmark

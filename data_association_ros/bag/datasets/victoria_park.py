@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.multi_hypothesis.motion import compose, compose_jacobians
-from .sequence import SlamSequence, SlamStep
+from .sequence import COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'victoria_park'
 FILE = 'victoria_park_gtsam.txt'
@@ -50,10 +50,11 @@ lie outside the 0.999 gate, in runs where the heading has drifted; with the head
 individual gate (ASSOCIATION_PARAMETERS) 95.7 %; 12-20 give 95.7-95.8 %, 25 and 30 lose the map
 again (75.0, 73.1 %).  No landmark dropping: it removed true trees seen once (95.4 % with the
 drop rule of issue 20, 15 -> 24 trees never mapped).  docs/slam.md."""
-ASSOCIATION_PARAMETERS = {'gate_probability': 0.99999, 'joint_gate_probability': 0.99999}
-"""association_node parameters of the bag: the individual gate as wide as the joint one (1e-5):
-with the heading variance x16 the individual gate of 0.999 still rejects the re-sighting of trees
-after a long loop (closed loop 91.2 %); 0.99995-0.999999 give 95.4-95.8 %, 0.9999 86.2 %."""
+ASSOCIATION_PARAMETERS = {**COURSE_SIGNIFICANCE, 'gate_probability': 0.99999}
+"""association_node parameters of the bag: the course's, with the individual gate as wide as the
+joint one (1e-5): with the heading variance x16 the individual gate of 0.999 still rejects the
+re-sighting of trees after a long loop (closed loop 91.2 %); 0.99995-0.999999 give 95.4-95.8 %,
+0.9999 86.2 %."""
 
 
 def _read_records(path: Path) -> tuple[np.ndarray, np.ndarray]:
