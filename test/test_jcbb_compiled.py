@@ -160,7 +160,11 @@ def test_cache_dir_falls_back_to_a_user_directory(monkeypatch, tmp_path):
     """A read-only package directory: NUMBA_CACHE_DIR becomes a directory under the user's
     cache ($XDG_CACHE_HOME); an explicit NUMBA_CACHE_DIR is kept."""
     package = Path(jit.__file__).resolve().parent / '__pycache__'
-    monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
+    # setenv first so that the undo removes what _choose_cache_dir sets (delenv of an unset
+    # name records nothing: the directory would leak to every later test's subprocesses, whose
+    # nodes then compiled their kernels afresh in it, 35-60 s)
+    monkeypatch.setenv('NUMBA_CACHE_DIR', '')
+    monkeypatch.delenv('NUMBA_CACHE_DIR')
     monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path))
     real = jit._writable
     monkeypatch.setattr(jit, '_writable',

@@ -6,7 +6,8 @@ into the launched node, and Ctrl-C (SIGINT) to the launch.
 The tools are not wheels: they come from ../shared/vendor/ros2_jazzy_cli (scripts/setup_env.sh
 installs them into .venv); without that folder these tests are skipped.  Every ros2 call runs
 with this run's ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the ros2 daemon the
-verbs start is stopped at the end."""
+verbs start is stopped at the end; the nodes run the numpy code (DATA_ASSOCIATION_ROS_NO_JIT=1,
+see the `tools` fixture)."""
 from __future__ import annotations
 
 import os
@@ -22,7 +23,6 @@ from pathlib import Path
 import pytest
 import yaml
 
-from data_association_ros.core import jit
 
 REPO = Path(__file__).resolve().parents[1]
 VENDOR = REPO.parent / 'shared' / 'vendor' / 'ros2_jazzy_cli'
@@ -97,17 +97,16 @@ def tools(tmp_path_factory) -> Tools:
     assert build.returncode == 0, build.stdout[-3000:]
     install = shlex.quote(str(ws / 'install' / 'setup.bash'))
     setup.write_text(setup.read_text() + f'source {install}\n')
-    # the installed copy compiles its own numba kernels at its first use (numba caches them by
-    # source path; 25-30 s here, as a user's first start after a build), later starts load them
-    warm = Tools(setup, env).run(
+    # the ROS tools are what is tested here, with the numpy code: the installed copy would
+    # compile its own numba kernels at its first use (numba caches them by source path; 25-30 s
+    # of CI), which the source tree's tests of the compiled kernels and of the node's start-up
+    # cover.  What must hold: `ros2 run` imports the installed copy, not the source tree.
+    env['DATA_ASSOCIATION_ROS_NO_JIT'] = '1'
+    imported = Tools(setup, env).run(
         'python -c "import sys; sys.path.pop(0); from data_association_ros.core import jit; '
-        'from data_association_ros.core.associators import jcbb_compiled; '
-        'print(jit.__file__, jit.problem_kernels() is not None and jcbb_compiled.available())"',
-        timeout=300)
-    assert warm.returncode == 0, warm.stdout[-2000:]
-    compiled = str(jit.load_numba() is not None)   # without numba: the numpy code answers
-    assert warm.stdout.startswith(str(ws / 'install')) and warm.stdout.split()[-1] == compiled, \
-        warm.stdout[-2000:]
+        'print(jit.__file__)"', timeout=60)
+    assert imported.returncode == 0, imported.stdout[-2000:]
+    assert imported.stdout.startswith(str(ws / 'install')), imported.stdout[-2000:]
     yield Tools(setup, env)
     Tools(setup, env).run('ros2 daemon stop', timeout=30)
 
