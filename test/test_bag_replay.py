@@ -38,6 +38,13 @@ THRESHOLDS = {
 CASES = [(bag, algorithm) for bag in THRESHOLDS for algorithm in THRESHOLDS[bag]]
 
 
+def parameters(bag: str) -> dict:
+    """The bag's parameters without the search's wall-clock budget (its search-node budget
+    stays): on a loaded host a JCBB search beyond the node's default 100 ms was cut short live
+    but not offline (exploration jcbb, precision 0.99802 vs 0.99800)."""
+    return {**bag_parameters(BAGS / bag), 'time_budget_ms': 0.0}
+
+
 @pytest.fixture(scope='module')
 def live_runs(tmp_path_factory):
     """Replays each case once (module scope): {(bag, algorithm): (recording dir, result)}."""
@@ -46,7 +53,7 @@ def live_runs(tmp_path_factory):
     def get(bag, algorithm):
         if (bag, algorithm) not in cache:
             path = BAGS / bag
-            result = replay(path, algorithm, bag_parameters(path), RATE, progress=False)
+            result = replay(path, algorithm, parameters(bag), RATE, progress=False)
             out = tmp_path_factory.mktemp(f'{bag}_{algorithm}') / 'recording'
             write_recording(out, result)
             cache[(bag, algorithm)] = (out, result)
@@ -67,7 +74,7 @@ def test_live_scores_meet_thresholds_and_equal_offline(live_runs, bag, algorithm
     assert live['answered'] == live['messages'] == len(truth)
     assert np.isfinite(live['latency_median_ms'])
 
-    offline = evaluate_offline(BAGS / bag, algorithm, bag_parameters(BAGS / bag))
+    offline = evaluate_offline(BAGS / bag, algorithm, parameters(bag))
     for key in ('pair_precision', 'pair_recall', 'new_correct', 'new_false', 'clutter_paired',
                 'answered', 'landmarks_right', 'landmarks_false'):
         assert live[key] == offline[key], key
@@ -75,7 +82,7 @@ def test_live_scores_meet_thresholds_and_equal_offline(live_runs, bag, algorithm
     reader = BagReader(BAGS / bag)
     inputs = [(m.topic, m.msg) for m in reader.messages(
         [t for t in topics.INPUT_TOPICS if t in reader.topics])]
-    expected = run_offline(inputs, node_config(algorithm, bag_parameters(BAGS / bag)))
+    expected = run_offline(inputs, node_config(algorithm, parameters(bag)))
     recorded = {stamp_ns(m.msg.header): cloud_to_array(m.msg)['landmark']
                 for m in BagReader(out).messages([topics.CORRESPONDENCES])}
     assert recorded.keys() == expected.keys()
