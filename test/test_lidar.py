@@ -174,6 +174,48 @@ def test_cluster_ends_tell_edges_from_occlusions():
                                              [False, True]])
 
 
+def test_an_end_next_to_no_return_near_the_range_limit_is_not_an_edge():
+    """A missing neighbouring return at an end whose face, going on as between its last two
+    returns, would pass max_range at the next beam (r + 2 |dr| + jump > max_range) may be the
+    object going on beyond the range: not an edge (nor occluded: it may end there too);
+    otherwise, or with the range unknown, an edge as before."""
+    points = polar_points([np.inf, 9.0, 9.2, 9.4, np.inf, np.inf, 5.0, 5.0, 5.0, np.inf])
+    labels = cluster_consecutive(points, gap=0.3)
+    np.testing.assert_array_equal(labels, [-1, 0, 0, 0, -1, -1, 1, 1, 1, -1])
+    # first end 9.0 + 2 x 0.2 + 0.3 = 9.7, last end 9.4 + 0.4 + 0.3 = 10.1; the 5 m one 5.3
+    for max_range, first, last in ((None, False, False), (10.0, False, True),
+                                   (9.5, True, True), (12.0, False, False)):
+        ends, edge, occluded = cluster_ends(points, labels, 0.3, max_range=max_range)
+        np.testing.assert_array_equal(edge, [[not first, not last], [True, True]],
+                                      str(max_range))
+        assert not occluded.any()
+
+
+def test_a_car_leaving_the_range_keeps_its_heading_and_velocity():
+    """A car driving away at 4 m/s, seen from the side at an angle, through the 30 m range
+    limit of a static LiDAR: while its side shrinks from the far end, the track must not take
+    the shrinking for the car slowing down and turning round (car_moving seed 116, object 4:
+    velocity reversed and heading flipped by 180 deg before the range limit counted as an
+    occlusion)."""
+    tracker = LidarObjectTracker(TrackerConfig())
+    angles = np.deg2rad(np.arange(60.0, 150.0, 0.25))
+    speed, dt, yaw = 4.0, 0.1, np.deg2rad(60.0)
+    heading = np.array([np.cos(yaw), np.sin(yaw)])
+    reported = []
+    for k in range(40):
+        centre = np.array([-8.0, 22.0]) + speed * dt * k * heading
+        ranges, _ = raycast(np.zeros(2), angles, rectangle_segments(centre, yaw, 4.5, 1.8),
+                            max_range=30.0)
+        points = np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+        tracks = tracker.step(points, dt * (k + 1), max_range=30.0)
+        if np.count_nonzero(np.isfinite(ranges)) >= 5 and len(tracks) == 1:
+            reported.append((k, np.count_nonzero(np.isfinite(ranges)), tracks[0].filter.x.copy()))
+    assert len(reported) > 20 and reported[-1][1] < reported[0][1] / 2   # it left the range
+    for k, returns, x in reported[5:]:
+        assert np.degrees(abs(np.angle(np.exp(1j * (x[2] - yaw))))) < 5, (k, returns, x)
+        assert x[3:5] @ heading > 3.0, (k, returns, x)
+
+
 def test_visible_faces_and_their_samples():
     ahead = corners(np.array([10.0, 0.0]), 0.0, 4.0, 2.0)
     np.testing.assert_array_equal(visible_faces(ahead), [False, True, False, False])  # rear

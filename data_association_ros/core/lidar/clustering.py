@@ -6,6 +6,8 @@ cluster ends are the object's real edges and which are cut by something in front
 they are farther apart than `gap` (on_face)."""
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
 FACE_SLOPE, FACE_STEPS = np.tan(np.deg2rad(20.0)), (0.5, 2.0)
@@ -88,7 +90,8 @@ def _continues(points: np.ndarray, index: np.ndarray, tolerance: float) -> np.nd
 
 
 def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
-                 sensor: np.ndarray = np.zeros(2)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 sensor: np.ndarray = np.zeros(2), max_range: Optional[float] = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(first and last point index (C, 2), which end is an object edge (C, 2) bool, which end is
     occluded (C, 2) bool) of clusters 0..C-1 of `labels` (from cluster_consecutive on
     scan-ordered points seen from `sensor` (2,), default the origin).
@@ -97,7 +100,11 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
     outside the cluster is missing (nothing behind) or farther by more than `jump` [m]; it is
     occluded when that return is nearer by more than `jump` (something in front hides the
     rest), or when it is the first or last beam of the scan (the field of view cuts it);
-    neither when within `jump`."""
+    neither when within `jump`, nor when the return is missing and the face, going on as
+    between the end's last two returns, would pass the sensor's `max_range` at the next beam:
+    r_end + 2 |r_end - r_inner| + jump > max_range (the object may go on beyond the range or
+    end there: an object leaving the range would otherwise seem to end where the range does
+    and be pulled back)."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     count = int(labels.max()) + 1 if labels.size else 0
     index = np.arange(len(labels))
@@ -115,8 +122,28 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
         neighbour_range = ranges[clipped]
         step = neighbour_range - ranges[ends]
     missing = ~np.isfinite(neighbour_range)
-    return ends, in_scan & (missing | (step > jump)), \
+    beyond = range_cut(points, ends, jump, sensor, max_range)
+    return ends, in_scan & ~beyond & (missing | (step > jump)), \
         ~in_scan | (~missing & (step < -jump))
+
+
+def range_cut(points: np.ndarray, ends: np.ndarray, jump: float,
+              sensor: np.ndarray = np.zeros(2), max_range: Optional[float] = None
+              ) -> np.ndarray:
+    """(C, 2) bool: the cluster ends (`ends` (C, 2) from cluster_ends) next to a missing return
+    where the face, going on as between the end's last two returns, would pass `max_range` at
+    the next beam: r_end + 2 |r_end - r_inner| + jump > max_range (all False when max_range is
+    None)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    ends = np.asarray(ends, dtype=int).reshape(-1, 2)
+    if max_range is None or not np.isfinite(max_range) or not ends.size:
+        return np.zeros(ends.shape, dtype=bool)
+    outer = np.clip(ends + [-1, 1], 0, len(points) - 1)
+    inner = np.clip(ends - [-1, 1], ends[:, :1], ends[:, 1:])   # the end's neighbour inside
+    with np.errstate(invalid='ignore'):
+        ranges = np.hypot(points[:, 0] - sensor[0], points[:, 1] - sensor[1])
+        slope = np.abs(ranges[ends] - ranges[inner])
+        return ~np.isfinite(ranges[outer]) & (ranges[ends] + 2 * slope + jump > max_range)
 
 
 def on_face(end: np.ndarray, outward: np.ndarray, spacing: float | np.ndarray, point: np.ndarray,

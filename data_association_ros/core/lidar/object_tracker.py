@@ -4,7 +4,8 @@
 Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 1. cluster consecutive points (clustering.cluster_consecutive; a face seen at a grazing angle,
    its returns farther apart than cluster_gap, stays one cluster) and flag each cluster end that
-   is an object edge or occluded (clustering.cluster_ends);
+   is an object edge or occluded (clustering.cluster_ends; an end next to no return whose face
+   would pass the sensor's range limit at the next beam is neither: clustering.range_cut);
 2. predict every track to t, its velocity turning with its yaw rate (measurement.
    turning_prediction, process_noise);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
@@ -216,7 +217,8 @@ class LidarObjectTracker:
         self._rays = beams(points, self._origins, directions, self._margin, max_range)
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
                                      FACE_SIGMAS * config.point_sigma)
-        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor)
+        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
+                                             max_range)
         self._occluded = occluded
         count = len(ends)
         dt = None if self.time is None else time - self.time
