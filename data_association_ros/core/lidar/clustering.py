@@ -122,28 +122,14 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
         neighbour_range = ranges[clipped]
         step = neighbour_range - ranges[ends]
     missing = ~np.isfinite(neighbour_range)
-    beyond = range_cut(points, ends, jump, sensor, max_range)
+    beyond = np.zeros_like(missing)
+    if max_range is not None and np.isfinite(max_range) and count:
+        inner = np.clip(ends - [-1, 1], ends[:, :1], ends[:, 1:])   # the end's neighbour inside
+        with np.errstate(invalid='ignore'):
+            beyond = missing & (ranges[ends] + 2 * np.abs(ranges[ends] - ranges[inner]) + jump
+                                > max_range)
     return ends, in_scan & ~beyond & (missing | (step > jump)), \
         ~in_scan | (~missing & (step < -jump))
-
-
-def range_cut(points: np.ndarray, ends: np.ndarray, jump: float,
-              sensor: np.ndarray = np.zeros(2), max_range: Optional[float] = None
-              ) -> np.ndarray:
-    """(C, 2) bool: the cluster ends (`ends` (C, 2) from cluster_ends) next to a missing return
-    where the face, going on as between the end's last two returns, would pass `max_range` at
-    the next beam: r_end + 2 |r_end - r_inner| + jump > max_range (all False when max_range is
-    None)."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    ends = np.asarray(ends, dtype=int).reshape(-1, 2)
-    if max_range is None or not np.isfinite(max_range) or not ends.size:
-        return np.zeros(ends.shape, dtype=bool)
-    outer = np.clip(ends + [-1, 1], 0, len(points) - 1)
-    inner = np.clip(ends - [-1, 1], ends[:, :1], ends[:, 1:])   # the end's neighbour inside
-    with np.errstate(invalid='ignore'):
-        ranges = np.hypot(points[:, 0] - sensor[0], points[:, 1] - sensor[1])
-        slope = np.abs(ranges[ends] - ranges[inner])
-        return ~np.isfinite(ranges[outer]) & (ranges[ends] + 2 * slope + jump > max_range)
 
 
 def on_face(end: np.ndarray, outward: np.ndarray, spacing: float | np.ndarray, point: np.ndarray,

@@ -5,7 +5,7 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 1. cluster consecutive points (clustering.cluster_consecutive; a face seen at a grazing angle,
    its returns farther apart than cluster_gap, stays one cluster) and flag each cluster end that
    is an object edge or occluded (clustering.cluster_ends; an end next to no return whose face
-   would pass the sensor's range limit at the next beam is neither: clustering.range_cut);
+   would pass the sensor's range limit at the next beam is neither);
 2. predict every track to t, its velocity turning with its yaw rate (measurement.
    turning_prediction, process_noise);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
