@@ -117,18 +117,27 @@ def _box(spans: list) -> tuple[np.ndarray, np.ndarray]:
 
 
 def blocked_share(origins: np.ndarray, directions: np.ndarray, free: np.ndarray,
-                  returned: np.ndarray, low: np.ndarray, high: np.ndarray,
+                  returned: np.ndarray, range_known: bool, low: np.ndarray, high: np.ndarray,
                   margin: float) -> Optional[float]:
     """Share of the beams (origins (R, 2) or (2,), unit directions (R, 2), free lengths ending
-    `margin` [m] before their returns) towards the box [low, high] (2,) that return more than
-    margin before entering it (something nearer hides it; a return from its face is the object
-    itself), or None when no beam points at it."""
+    `margin` [m] before their returns, `returned` (R,) bool) towards the box [low, high] (2,)
+    that end more than 2 margin before entering it: a return from something nearer (it hides
+    the box), or, without a return and with the sensor's range known, the end of the range
+    (beams: the box lies out of range, where nothing is seen; a beam without a return from a
+    sensor of unknown range hides nothing).  Beams that return from within the box (the object
+    itself, or part of it) count neither way; when only they point at it the share is 0 (it is
+    in sight).  None when no beam points at it."""
     with np.errstate(invalid='ignore'):
         enter, leave = through_box(origins, directions, low, high)
         towards = np.all(np.isfinite(directions), axis=1) & (leave > np.maximum(enter, 0.0))
     if not towards.any():
         return None
-    return float(np.mean(returned[towards] & (free[towards] + 2 * margin < enter[towards])))
+    free, enter, leave, returned = free[towards], enter[towards], leave[towards], \
+        np.asarray(returned, bool)[towards]
+    blocked = (returned | range_known) & (free + 2 * margin < enter)
+    own = returned & ~blocked & (free <= leave)
+    counted = np.count_nonzero(~own)
+    return float(np.count_nonzero(blocked) / counted) if counted else 0.0
 
 
 def carve(low: np.ndarray, high: np.ndarray, seen_low: np.ndarray, seen_high: np.ndarray,

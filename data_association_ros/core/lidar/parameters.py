@@ -17,12 +17,16 @@ person (shoulders and stride)."""
 PRESETS = {
     'car': {},
     'f1tenth': {'size_class': 'f1tenth', 'fine': 'nearest', 'nearest_cutoff': 0.1,
-                'boundary_spacing': 0.05, 'max_size_ratio': 2.0},
+                'boundary_spacing': 0.05, 'max_size_ratio': 2.0,
+                'calm_yaw_accel_sigma': 0.5},
 }
 """Parameter sets per setting (config/lidar_<name>.yaml): F1Tenth racing pairs points with the
 nearest boundary point within 0.1 m (JCBB takes most of a 25 ms scan period on this 2-core
 machine; nearest is about 2-3x faster here) on a boundary sampled every 5 cm (a 0.55 m car), and
-takes anything longer than 1.1 m for the track's walls."""
+takes anything longer than 1.1 m for the track's walls; an IMM mixes a calm motion model (white
+angular acceleration 0.5 rad/s^2/sqrt(Hz)) with the agile default (4): a small car far away shows
+a few returns of one face, whose heading scatters by 10-20 deg from scan to scan, and the agile
+model follows that scatter (docs/lidar.md, "Two motion models")."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
 
 
@@ -100,6 +104,11 @@ PARAMETERS = (
     _float('accel_sigma', 4.0, 'process noise: white acceleration [m/s^2/sqrt(Hz)]'),
     _float('yaw_accel_sigma', 4.0, 'process noise: white angular acceleration '
            '[rad/s^2/sqrt(Hz)]'),
+    _float('calm_yaw_accel_sigma', 0.0, 'a second motion model, calm (driving straight), with '
+           'this white angular acceleration [rad/s^2/sqrt(Hz)], mixed with the yaw_accel_sigma '
+           'one by an IMM (core/tracking/interacting_models.py; tracks started from then on); '
+           '0: one model (the f1tenth preset: 0.5)', low_open=False),
+    _float('model_switch_time', 2.0, 'IMM: mean time an object keeps to one motion model [s]'),
     ParameterSpec('velocity_measurement', False, "the fictitious measurement includes the "
                   "velocity and yaw rate (the seed's); false: only x, y, yaw (the filter "
                   'differentiates)', kind=bool),
@@ -147,6 +156,8 @@ class TrackerConfig:
     ransac_threshold: float = 0.1
     accel_sigma: float = 4.0
     yaw_accel_sigma: float = 4.0
+    calm_yaw_accel_sigma: float = 0.0
+    model_switch_time: float = 2.0
     velocity_measurement: bool = False
     position_sigma: float = 0.02
     yaw_sigma: float = 0.01

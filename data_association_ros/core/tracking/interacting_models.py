@@ -1,0 +1,128 @@
+"""Interacting multiple models (IMM; Blom and Bar-Shalom 1988; Bar-Shalom, Li, Kirubarajan,
+"Estimation with Applications to Tracking and Navigation", 2001, 11.6.6) over Kalman filters
+that share one state x (n,) and differ in their prediction (F, Q).
+
+Per prediction over dt [s], with model probabilities mu (M,) and the switching matrix
+Pi[i, j] = dt / switch_time / (M - 1) for i != j (at most 1 / M), 1 - sum of the others on the
+diagonal:
+    c_j = sum_i Pi[i, j] mu_i,   w_ij = Pi[i, j] mu_i / c_j,
+    x0_j = sum_i w_ij x_i,   P0_j = sum_i w_ij (P_i + (x_i - x0_j)(x_i - x0_j)^T),
+    model j predicts (x0_j, P0_j) with its own (x' = f(x), F, Q_j);   mu = c.
+Per update with z (m,), H, R: each model's Kalman update (Joseph form) and likelihood
+N(z - H x_j; 0, S_j); mu_j proportional to mu_j N_j.  The reported state and covariance are the
+moment-matched mixture x = sum_j mu_j x_j, P = sum_j mu_j (P_j + (x_j - x)(x_j - x)^T).
+
+The owner may edit x (in place or by assigning a new array): the edit moves every model's state
+by the same amount before the next predict or update.  Assigning a new P restarts every model at
+(x, P) with the initial probabilities.
+"""
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .kalman import KalmanFilter
+
+Prediction = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+"""x (n,) -> (predicted x (n,), Jacobian F (n, n))."""
+
+
+class InteractingModels:
+    """See the module docstring.  x, p: the mixture; h, r: the next update's H (m, n), R (m, m);
+    probabilities (M,): the models' probabilities."""
+
+    def __init__(self, x: np.ndarray, p: np.ndarray, probabilities: Sequence[float],
+                 switch_time: float) -> None:
+        initial = np.asarray(probabilities, dtype=float)
+        if initial.ndim != 1 or initial.size < 1 or np.any(initial < 0) or initial.sum() <= 0:
+            raise ValueError(f'probabilities: {probabilities!r} are not M >= 1 non-negative '
+                             'weights')
+        if not switch_time > 0:
+            raise ValueError(f'switch_time: {switch_time!r} is not positive')
+        self.initial = initial / initial.sum()
+        self.switch_time = float(switch_time)
+        n = len(x)
+        self.h, self.r = np.eye(n), np.eye(n)
+        self._restart(np.asarray(x, dtype=float), np.asarray(p, dtype=float))
+
+    def _restart(self, x: np.ndarray, p: np.ndarray) -> None:
+        self.models = [KalmanFilter(x, p, np.eye(len(x)), np.zeros_like(p), self.h, self.r)
+                       for _ in self.initial]
+        self.probabilities = self.initial.copy()
+        self._combine()
+
+    def _combine(self) -> None:
+        mu = self.probabilities
+        states = np.array([m.x for m in self.models])
+        x = mu @ states
+        spread = states - x
+        p = np.einsum('j,jab->ab', mu, np.array([m.p for m in self.models])) \
+            + np.einsum('j,ja,jb->ab', mu, spread, spread)
+        self.x, self.p = x, p
+        self._x_seen, self._p_seen = x.copy(), p
+
+    def _sync(self) -> None:
+        """Apply the owner's edits of x and p to the models (module docstring)."""
+        if self.p is not self._p_seen:
+            self._restart(np.asarray(self.x, dtype=float), np.asarray(self.p, dtype=float))
+            return
+        shift = np.asarray(self.x, dtype=float) - self._x_seen
+        if np.any(shift != 0):
+            for model in self.models:
+                model.x = model.x + shift
+            self._x_seen = np.asarray(self.x, dtype=float).copy()
+
+    def switching(self, dt: float) -> np.ndarray:
+        """Pi (M, M) over dt [s] (module docstring)."""
+        count = len(self.models)
+        if count == 1:
+            return np.ones((1, 1))
+        leave = min(dt / self.switch_time, 1.0 - 1.0 / count) / (count - 1)
+        pi = np.full((count, count), leave)
+        np.fill_diagonal(pi, 1.0 - leave * (count - 1))
+        return pi
+
+    def predict(self, prediction: Prediction, noises: Sequence[np.ndarray], dt: float) -> None:
+        """Mix, then predict model j with `prediction` and Q = noises[j] (module docstring)."""
+        self._sync()
+        pi = self.switching(dt)
+        weights = pi * self.probabilities[:, None]  # (i, j)
+        c = weights.sum(axis=0)
+        weights = weights / np.where(c > 0, c, 1.0)
+        states = np.array([m.x for m in self.models])
+        covariances = np.array([m.p for m in self.models])
+        for j, model in enumerate(self.models):
+            x0 = weights[:, j] @ states
+            spread = states - x0
+            p0 = np.einsum('i,iab->ab', weights[:, j], covariances) \
+                + np.einsum('i,ia,ib->ab', weights[:, j], spread, spread)
+            predicted, model.f = prediction(x0)
+            model.x, model.p, model.q = x0, p0, np.asarray(noises[j], dtype=float)
+            model.predict()
+            model.x = predicted
+        self.probabilities = c / c.sum()
+        self._combine()
+
+    def innovation_covariance(self) -> np.ndarray:
+        """S = H P H^T + R (m, m) of the mixture."""
+        return self.h @ self.p @ self.h.T + self.r
+
+    def update(self, z: np.ndarray) -> None:
+        """Every model's Kalman update with z (m,); the probabilities by their likelihoods."""
+        self._sync()
+        z = np.asarray(z, dtype=float)
+        logs = np.empty(len(self.models))
+        for j, model in enumerate(self.models):
+            model.h, model.r = self.h, self.r
+            s = model.innovation_covariance()
+            innovation = z - model.h @ model.x
+            sign, log_det = np.linalg.slogdet(2 * np.pi * s)
+            logs[j] = -0.5 * (innovation @ np.linalg.solve(s, innovation) + log_det) \
+                if sign > 0 else -np.inf
+            model.update(z)
+        if np.all(np.isfinite(logs)):
+            weights = self.probabilities * np.exp(logs - logs.max())
+            if weights.sum() > 0:
+                self.probabilities = weights / weights.sum()
+        self._combine()

@@ -1,0 +1,127 @@
+"""The IMM (core/tracking/interacting_models.py) against a Kalman filter and the formulas written
+out here by hand."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from scipy.stats import multivariate_normal
+
+from data_association_ros.core.tracking import InteractingModels, KalmanFilter
+
+F = np.array([[1.0, 0.5], [0.0, 1.0]])
+H = np.array([[1.0, 0.0]])
+R = np.array([[0.3]])
+Q_CALM, Q_AGILE = np.diag([0.0, 0.01]), np.diag([0.0, 2.0])
+X0, P0 = np.array([0.0, 1.0]), np.diag([1.0, 0.5])
+
+
+def linear(x):
+    return F @ x, F
+
+
+def test_one_model_is_the_kalman_filter():
+    imm = InteractingModels(X0, P0, [1.0], switch_time=1.0)
+    kf = KalmanFilter(X0, P0, F, Q_AGILE, H, R)
+    imm.h, imm.r = H, R
+    for z in (0.7, 1.9, 2.2, 2.4):
+        imm.predict(linear, [Q_AGILE], 0.5)
+        kf.predict()
+        np.testing.assert_allclose(imm.innovation_covariance(), kf.innovation_covariance())
+        imm.update([z])
+        kf.update([z])
+        np.testing.assert_allclose(imm.x, kf.x, rtol=1e-12)
+        np.testing.assert_allclose(imm.p, kf.p, rtol=1e-12)
+    assert imm.probabilities.tolist() == [1.0]
+
+
+def test_one_cycle_by_hand():
+    """Mixing, prediction, update and probabilities of two models written out here."""
+    imm = InteractingModels(X0, P0, [0.3, 0.7], switch_time=2.0)
+    imm.h, imm.r = H, R
+    imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)  # models equal before: mixing changes nothing
+    pi = np.array([[0.75, 0.25], [0.25, 0.75]])  # dt / switch_time = 0.25
+    c = np.array([0.3, 0.7]) @ pi
+    np.testing.assert_allclose(imm.probabilities, c)
+    predicted = [(F @ X0, F @ P0 @ F.T + q) for q in (Q_CALM, Q_AGILE)]
+    z = np.array([0.9])
+    likelihood = [multivariate_normal.pdf(z, H @ x, H @ p @ H.T + R) for x, p in predicted]
+    mu = c * likelihood / np.sum(c * likelihood)
+    updated = []
+    for x, p in predicted:
+        s = H @ p @ H.T + R
+        k = p @ H.T @ np.linalg.inv(s)
+        updated.append((x + k @ (z - H @ x), (np.eye(2) - k @ H) @ p))
+    imm.update(z)
+    np.testing.assert_allclose(imm.probabilities, mu, rtol=1e-12)
+    x = mu[0] * updated[0][0] + mu[1] * updated[1][0]
+    p = sum(m * (pj + np.outer(xj - x, xj - x)) for m, (xj, pj) in zip(mu, updated))
+    np.testing.assert_allclose(imm.x, x, rtol=1e-12)
+    np.testing.assert_allclose(imm.p, p, rtol=1e-12, atol=1e-15)
+
+
+def test_mixing_by_hand():
+    """Two models with different states: the second cycle's mixed inputs (module docstring)."""
+    imm = InteractingModels(X0, P0, [0.5, 0.5], switch_time=1.0)
+    imm.h, imm.r = H, R
+    imm.predict(linear, [Q_CALM, Q_AGILE], 0.25)
+    imm.update([1.3])  # the models now differ
+    states = [m.x.copy() for m in imm.models]
+    covariances = [m.p.copy() for m in imm.models]
+    mu = imm.probabilities.copy()
+    pi = np.array([[0.75, 0.25], [0.25, 0.75]])
+    c = mu @ pi
+    seen = []
+    imm.predict(lambda x: (seen.append(x.copy()), (F @ x, F))[1], [Q_CALM, Q_AGILE], 0.25)
+    for j in range(2):
+        w = pi[:, j] * mu / c[j]
+        x0 = w[0] * states[0] + w[1] * states[1]
+        np.testing.assert_allclose(seen[j], x0, rtol=1e-12)
+        p0 = sum(w[i] * (covariances[i] + np.outer(states[i] - x0, states[i] - x0))
+                 for i in range(2))
+        q = (Q_CALM, Q_AGILE)[j]
+        np.testing.assert_allclose(imm.models[j].p, F @ p0 @ F.T + q, rtol=1e-12)
+    np.testing.assert_allclose(imm.probabilities, c / c.sum())
+
+
+def test_owner_edits_move_every_model():
+    imm = InteractingModels(X0, P0, [0.5, 0.5], switch_time=1.0)
+    imm.h, imm.r = H, R
+    imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)
+    imm.update([0.2])
+    before = [m.x.copy() for m in imm.models]
+    imm.x[0] += 3.0  # in place, as the tracker turns or moves its rectangle
+    imm.predict(lambda x: (x.copy(), np.eye(2)), [np.zeros((2, 2))] * 2, 1e-9)
+    for model, old in zip(imm.models, before):
+        assert model.x[0] == pytest.approx(old[0] + 3.0, abs=1e-6)
+    imm.x, imm.p = np.array([5.0, -1.0]), np.diag([2.0, 3.0])  # a restart
+    imm.update([5.0])
+    assert np.allclose([m.x[1] for m in imm.models], imm.models[0].x[1])  # restarted alike
+    np.testing.assert_allclose(imm.probabilities, [0.5, 0.5])  # equal likelihoods
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10 ** 6))
+def test_the_model_that_fits_wins(seed):
+    """Measurements of a constant velocity (no acceleration at all): the calm model's
+    likelihoods are higher, so after 40 updates it holds most of the probability; a velocity
+    that jumps every 10 steps hands it to the agile one."""
+    rng = np.random.default_rng(seed)
+    for jumps, calm_wins in ((False, True), (True, False)):
+        imm = InteractingModels(X0, P0, [0.5, 0.5], switch_time=5.0)
+        imm.h, imm.r = H, np.array([[0.01]])
+        position, velocity = 0.0, 1.0
+        for k in range(40):
+            if jumps and k % 10 == 9:
+                velocity = -velocity * 4
+            position += velocity * 0.5
+            imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)
+            imm.update([position + rng.normal(0, 0.1)])
+        assert (imm.probabilities[0] > 0.5) == calm_wins, imm.probabilities
+
+
+def test_refuses_bad_settings():
+    with pytest.raises(ValueError):
+        InteractingModels(X0, P0, [], switch_time=1.0)
+    with pytest.raises(ValueError):
+        InteractingModels(X0, P0, [0.5, -0.1], switch_time=1.0)
+    with pytest.raises(ValueError):
+        InteractingModels(X0, P0, [0.5, 0.5], switch_time=0.0)
