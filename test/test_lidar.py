@@ -2,6 +2,7 @@
 and the lidar_two_cars bag."""
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from data_association_ros.core.lidar import cluster_consecutive, raycast, rectangle_segments
 
@@ -422,6 +423,37 @@ def test_tracker_survives_empty_invalid_and_out_of_order_scans():
                                seconds=0.2):
         tracks = tracker.step(points, 1.0 + t)
     assert len(tracks) == 1 and tracks[0].hits == 8
+
+
+@pytest.mark.parametrize('calm', [0.0, 0.5])
+@settings(max_examples=20, deadline=None)
+@given(st.lists(st.tuples(st.floats(1e-6, 30.0), st.integers(0, 2 ** 31)), min_size=2,
+                max_size=12))
+def test_tracker_with_one_or_two_motion_models_stays_finite(calm, steps):
+    """Random gaps between scans (1 us to 30 s, after 4 scans 25 ms apart) of a box driving
+    and turning, with random returns dropped and random clutter: never an exception, every
+    track's state and covariance finite, its IMM probabilities a distribution."""
+    tracker = LidarObjectTracker(TrackerConfig(calm_yaw_accel_sigma=calm))
+    angles = np.deg2rad(np.arange(-60.0, 60.0, 0.5))
+    time, corrected = 0.0, False
+    for gap, seed in [(0.025, 0)] * 4 + steps:  # 4 close scans first: tracks corrected
+        rng = np.random.default_rng(seed)
+        time += gap
+        yaw = 0.3 * np.sin(time)
+        centre = np.array([8.0 + 2.0 * np.sin(time / 3), 2.0 * np.cos(time / 2)])
+        ranges, _ = raycast(np.zeros(2), angles, rectangle_segments(centre, yaw, 4.5, 1.8), 30.0)
+        ranges = np.where(rng.random(ranges.size) < 0.2, np.nan, ranges)
+        ranges = np.where(rng.random(ranges.size) < 0.05, rng.uniform(1, 30, ranges.size), ranges)
+        with np.errstate(invalid='ignore'):
+            points = np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+        tracker.step(points, time, max_range=30.0)
+        corrected = corrected or any(t.hits >= 3 for t in tracker.tracks)
+        for track in tracker.tracks:
+            assert np.all(np.isfinite(track.filter.x)) and np.all(np.isfinite(track.filter.p))
+            if calm:
+                assert np.isclose(track.filter.probabilities.sum(), 1.0)
+                assert np.all(track.filter.probabilities >= 0)
+    assert corrected
 
 
 def test_bag_scores_offline():
