@@ -106,9 +106,10 @@ def test_bad_scans_are_dropped_and_the_node_keeps_working(graph):
 
 
 def test_points_input_and_runtime_parameters(graph):
-    results = set_parameters(graph, jnis='polar', fine='nearest')
+    results = set_parameters(graph, jnis='polar', fine='nearest', calm_yaw_accel_sigma=0.5)
     assert all(r.successful for r in results)
     assert graph.node.tracker.config.jnis == 'polar'
+    assert not set_parameters(graph, calm_yaw_accel_sigma=-1.0)[0].successful
     rejected = set_parameters(graph, jnis='spherical')[0]
     assert not rejected.successful and 'cartesian, polar' in rejected.reason
     assert graph.node.tracker.config.jnis == 'polar'
@@ -121,6 +122,9 @@ def test_points_input_and_runtime_parameters(graph):
                      topic='points')
     tracks = cloud_to_array(reply)
     assert reply.header.frame_id == 'laser' and len(tracks) >= 2
+    from data_association_ros.core.tracking import InteractingModels
+    filters = [t.filter for t in graph.node.tracker.tracks]  # started after the change
+    assert filters and all(isinstance(f, InteractingModels) for f in filters)
 
 
 def moving_sensor_messages(duration: float) -> list:
