@@ -1,11 +1,13 @@
 """Latency from publishing an observation message to receiving its correspondences.
 
 Starts association_node (per algorithm) and a bare rclpy echo node as separate processes on
-loopback DDS, sends the same K-observation scans to each, one at a time, and prints median and
-p99 of the round trip (after --warmup messages) and their ratios to the echo's (same message
-sizes, no work: the baseline measured in the same run), and the first answered scan's round
-trip (after the server's topics matched; a scan whose map or pose has not arrived yet is
-skipped by the node) against the median.
+loopback DDS, all at once, and sends the same K-observation scans to each, one message at a
+time, the servers taking turns message by message (so that the echo, the baseline, is measured
+on the same machine as the nodes: a shared host's speed drifts within a run).  Prints median
+and p99 of the round trip (after --warmup messages) and their ratios to the echo's (same
+message sizes, no work), and the first answered scan's round trip (after the server's topics
+matched; a scan whose map or pose has not arrived yet is skipped by the node) against the
+median.
 
     python benchmarks/node_latency.py [--observations 50] [--landmarks 200] [--messages 200]
                                       [--algorithms mahalanobis_nn,gnn,jcbb]
@@ -37,7 +39,7 @@ from std_msgs.msg import Header  # noqa: E402
 
 from msg_adapters import array_to_cloud, odometry_message  # noqa: E402
 from msg_adapters.outputs import CORRESPONDENCE_DTYPE  # noqa: E402
-from ros_process import close, wait_until_matched  # noqa: E402
+from ros_process import stop  # noqa: E402
 
 QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 POSE_COVARIANCE = np.diag([0.01, 0.01, 0.003])
@@ -86,67 +88,76 @@ def scene(observations: int, landmarks: int, seed: int = 0):
     return landmark_points, observation_points, pose
 
 
-def measure(namespace: str, command: list[str], args, landmark_points, observation_points,
-            pose, needs_inputs: bool = True, code: Optional[str] = None) -> np.ndarray:
-    """Round-trip times [ms] of the args.warmup + args.messages observation messages through one
-    server (NaN for a message not answered within 5 s); code: a checkout whose package the
-    server runs (PYTHONPATH), None: this one."""
-    no_jit = command[-1].endswith(':nojit')
-    if no_jit:
-        command = command[:-1] + [command[-1][:-len(':nojit')]]
-    environment = dict(os.environ)
-    if no_jit:
-        environment['DATA_ASSOCIATION_ROS_NO_JIT'] = '1'
-    if code is not None:
-        environment['PYTHONPATH'] = os.pathsep.join(
-            [code] + [p for p in [environment.get('PYTHONPATH')] if p])
-    process = subprocess.Popen(command + ['--ros-args', '-r', f'__ns:={namespace}'],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                               env=environment)
-    node = rclpy.create_node('latency_client', namespace=namespace)
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    received: dict[tuple[int, int], float] = {}
+class Server:
+    """One server process and the client's publishers and reply subscription in its
+    namespace."""
 
-    def on_reply(msg):
-        received[(msg.header.stamp.sec, msg.header.stamp.nanosec)] = time.perf_counter()
-    reply = node.create_subscription(PointCloud2, 'correspondences', on_reply, QOS)
-    landmarks_pub = node.create_publisher(PointCloud2, 'landmarks', QOS)
-    observations_pub = node.create_publisher(PointCloud2, 'observations', QOS)
-    pose_pub = node.create_publisher(Odometry, 'robot_pose', QOS)
-    try:
-        wait_until_matched(executor, node, observations_pub, 'correspondences')
-        # every connection of the round trip matched, so that the first scan's time is its own
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline and not (
-                reply.get_publisher_count() and (not needs_inputs or (
-                    landmarks_pub.get_subscription_count()
-                    and pose_pub.get_subscription_count()))):
-            executor.spin_once(timeout_sec=0.05)
-        settle = time.monotonic() + 0.5   # matching is per side: let both sides finish it
-        while time.monotonic() < settle:
-            executor.spin_once(timeout_sec=0.05)
-        latencies = []
-        for k in range(args.messages + args.warmup):
-            stamp = Header()
-            stamp.stamp.sec = 1000 + k
-            stamp.frame_id = 'map'
-            landmarks_pub.publish(array_to_cloud(landmark_points, stamp))
-            odometry = odometry_message(stamp, pose, POSE_COVARIANCE)
-            pose_pub.publish(odometry)
-            executor.spin_once(timeout_sec=0.02)  # let the map and pose arrive first
-            observation_header = Header(stamp=stamp.stamp, frame_id='base_link')
-            message = array_to_cloud(observation_points, observation_header)
-            key = (stamp.stamp.sec, 0)
+    def __init__(self, node, name: str, namespace: str, command: list[str],
+                 needs_inputs: bool, code: Optional[str]) -> None:
+        no_jit = command[-1].endswith(':nojit')
+        if no_jit:
+            command = command[:-1] + [command[-1][:-len(':nojit')]]
+        environment = dict(os.environ)
+        if no_jit:
+            environment['DATA_ASSOCIATION_ROS_NO_JIT'] = '1'
+        if code is not None:
+            environment['PYTHONPATH'] = os.pathsep.join(
+                [code] + [p for p in [environment.get('PYTHONPATH')] if p])
+        self.name, self.namespace, self.needs_inputs = name, namespace, needs_inputs
+        self.process = subprocess.Popen(command + ['--ros-args', '-r', f'__ns:={namespace}'],
+                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                        env=environment)
+        self.received: dict[int, float] = {}
+        self.reply = node.create_subscription(
+            PointCloud2, f'{namespace}/correspondences',
+            lambda msg: self.received.__setitem__(msg.header.stamp.sec, time.perf_counter()),
+            QOS)
+        self.landmarks = node.create_publisher(PointCloud2, f'{namespace}/landmarks', QOS)
+        self.observations = node.create_publisher(PointCloud2, f'{namespace}/observations', QOS)
+        self.pose = node.create_publisher(Odometry, f'{namespace}/robot_pose', QOS)
+        self.latencies: list[float] = []
+
+    def matched(self, node) -> bool:
+        """Every connection of the round trip matched (the first scan's time is its own)."""
+        return bool(self.observations.get_subscription_count()
+                    and node.count_publishers(f'{self.namespace}/correspondences')
+                    and self.reply.get_publisher_count()
+                    and (not self.needs_inputs or (self.landmarks.get_subscription_count()
+                                                   and self.pose.get_subscription_count())))
+
+
+def measure(servers: list[Server], node, executor, args, landmark_points, observation_points,
+            pose) -> None:
+    """Round-trip times [ms] of the args.warmup + args.messages observation messages through
+    each server into server.latencies (NaN for a message not answered within 5 s).  The
+    servers run together and take turns message by message (in a rotating order), so that all
+    of them see the same machine: a shared host's speed drifts over a run."""
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not all(s.matched(node) for s in servers):
+        executor.spin_once(timeout_sec=0.05)
+    settle = time.monotonic() + 0.5   # matching is per side: let both sides finish it
+    while time.monotonic() < settle:
+        executor.spin_once(timeout_sec=0.05)
+    for k in range(args.messages + args.warmup):
+        stamp = Header()
+        stamp.stamp.sec = 1000 + k
+        stamp.frame_id = 'map'
+        shift = k % len(servers)
+        for server in servers[shift:] + servers[:shift]:
+            server.landmarks.publish(array_to_cloud(landmark_points, stamp))
+            server.pose.publish(odometry_message(stamp, pose, POSE_COVARIANCE))
+            pause = time.monotonic() + 0.02   # let the map and pose arrive first
+            while time.monotonic() < pause:
+                executor.spin_once(timeout_sec=pause - time.monotonic())
+            message = array_to_cloud(observation_points,
+                                     Header(stamp=stamp.stamp, frame_id='base_link'))
             sent = time.perf_counter()
-            observations_pub.publish(message)
-            deadline = time.monotonic() + 5
-            while key not in received and time.monotonic() < deadline:
+            server.observations.publish(message)
+            wait = time.monotonic() + 5
+            while stamp.stamp.sec not in server.received and time.monotonic() < wait:
                 executor.spin_once(timeout_sec=0.005)
-            latencies.append((received[key] - sent) * 1000.0 if key in received else np.nan)
-        return np.array(latencies)
-    finally:
-        close(executor, node, process)
+            answered = server.received.get(stamp.stamp.sec)
+            server.latencies.append(np.nan if answered is None else (answered - sent) * 1000.0)
 
 
 def main() -> None:
@@ -166,22 +177,34 @@ def main() -> None:
     rclpy.init()
     landmark_points, observation_points, pose = scene(args.observations, args.landmarks)
     here = os.path.abspath(__file__)
-    servers = [('bare rclpy echo', [sys.executable, here, '--echo', '--observations',
-                                    str(args.observations)], None)]
+    commands = [('bare rclpy echo', [sys.executable, here, '--echo', '--observations',
+                                     str(args.observations)], None)]
     for name in args.algorithms.split(','):
         command = [sys.executable, '-m', 'data_association_ros.nodes.association_node',
                    '--ros-args', '-p', f'algorithm:={name}']
         if args.baseline:
-            servers.append((f'{name} (baseline)', command, os.path.abspath(args.baseline)))
-        servers.append((name, command, None))
+            commands.append((f'{name} (baseline)', command, os.path.abspath(args.baseline)))
+        commands.append((name, command, None))
     print(f'K={args.observations} observations, N={args.landmarks} landmarks, '
-          f'{args.messages} messages each, ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]}')
+          f'{args.messages} messages each, servers interleaved, '
+          f'ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]}')
+    node = rclpy.create_node('latency_client')
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    servers = [Server(node, name, f'/latency{index}', command, index > 0, code)
+               for index, (name, command, code) in enumerate(commands)]
+    try:
+        measure(servers, node, executor, args, landmark_points, observation_points, pose)
+    finally:
+        executor.remove_node(node)
+        node.destroy_node()
+        for server in servers:
+            stop(server.process)
     print(f'{"server":<26}{"answered":>9}{"median ms":>11}{"p99 ms":>9}{"x echo":>8}'
           f'{"p99 x echo":>11}{"first ms":>10}{"first/median":>13}')
     baseline = None
-    for index, (name, command, code) in enumerate(servers):
-        everything = measure(f'/latency{index}', command, args, landmark_points,
-                             observation_points, pose, needs_inputs=index > 0, code=code)
+    for server in servers:
+        everything = np.array(server.latencies)
         latencies = everything[args.warmup:]
         latencies = latencies[np.isfinite(latencies)]
         median = float(np.median(latencies)) if len(latencies) else float('nan')
@@ -189,7 +212,7 @@ def main() -> None:
         answered = everything[np.isfinite(everything)]
         first = float(answered[0]) if len(answered) else float('nan')
         baseline = (median, p99) if baseline is None else baseline
-        print(f'{name:<26}{len(latencies):>9}{median:>11.2f}{p99:>9.2f}'
+        print(f'{server.name:<26}{len(latencies):>9}{median:>11.2f}{p99:>9.2f}'
               f'{median / baseline[0]:>8.2f}{p99 / baseline[1]:>11.2f}{first:>10.2f}'
               f'{first / median:>13.2f}')
     rclpy.shutdown()

@@ -19,6 +19,11 @@ def close(executor, node, process: subprocess.Popen) -> None:
     """Remove the client node and stop the server (SIGINT, then kill after 10 s)."""
     executor.remove_node(node)
     node.destroy_node()
+    stop(process)
+
+
+def stop(process: subprocess.Popen) -> None:
+    """Stop a server process: SIGINT, then kill after 10 s."""
     process.send_signal(signal.SIGINT)
     try:
         process.wait(timeout=10)

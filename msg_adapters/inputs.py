@@ -6,7 +6,7 @@ layout errors pointcloud.PointCloudFormatError; both name the field.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -104,6 +104,12 @@ def observations_from_points(points: np.ndarray, model: str,
                              observation_noise: Sequence[float]) -> Observations:
     """Observations of `model` from a structured array; missing covariance fields fall back to
     diag(`observation_noise`) (variances in the model's units, 1 or m values)."""
+    columns = _float32_columns(points.dtype, model) if len(points) \
+        and points.flags.c_contiguous else None
+    if columns is not None:   # every field read a little-endian float32 word: one pass
+        words = np.ndarray((len(points), points.dtype.itemsize // 4), np.float32, points)
+        return Observations.from_float32_columns(words, columns, model,
+                                                 noise_matrix(observation_noise, 2))
     names = MODEL_FIELDS[model]
     values = np.zeros((len(points), len(names)))
     if len(points):   # an empty cloud needs no fields
@@ -115,6 +121,34 @@ def observations_from_points(points: np.ndarray, model: str,
     else:
         covariances = np.broadcast_to(fallback, (len(points),) + fallback.shape).copy()
     return Observations(values, covariances, model)
+
+
+@lru_cache(maxsize=64)
+def _float32_columns(dtype: np.dtype, model: str) -> Optional[np.ndarray]:
+    """The 5 word indices Observations.from_float32_columns reads for a 2-D `model` (value 0,
+    value 1, var 0, cov 01, var 1; -1: absent, the variances only when both are there) when
+    the points of `dtype` are 4-byte words and those fields little-endian float32 ones at word
+    boundaries; None otherwise (another layout, a missing value field: the general path)."""
+    if model not in COVARIANCE_FIELDS or dtype.names is None or dtype.itemsize % 4:
+        return None
+    word = np.dtype('<f4')
+
+    def index(name: Optional[str]) -> int:
+        if name is None or name not in dtype.fields:
+            return -1
+        field_dtype, offset = dtype.fields[name][:2]
+        return offset // 4 if field_dtype == word and field_dtype.isnative and not offset % 4 \
+            else -2
+    values = [index(name) for name in MODEL_FIELDS[model]]
+    variance_0, covariance, variance_1 = map(index, COVARIANCE_FIELDS[model])
+    if variance_0 == -1 or variance_1 == -1:   # diag(observation_noise) for every R
+        variance_0 = covariance = variance_1 = -1
+    columns = values + [variance_0, covariance, variance_1]
+    if min(values) < 0 or -2 in columns:
+        return None
+    array = np.array(columns, dtype=np.int64)
+    array.flags.writeable = False
+    return array
 
 
 def observations_from_cloud(msg, model: str, observation_noise: Sequence[float]) -> Observations:

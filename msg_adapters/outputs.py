@@ -13,7 +13,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 from data_association_ros.core import NEW, UNASSOCIATED, Association
 from data_association_ros.core.candidates import Candidate, ConfirmedLandmark
 
-from .pointcloud import array_to_cloud
+from . import packing_kernels
+from .pointcloud import array_to_cloud, packed_cloud
 
 CORRESPONDENCE_DTYPE = np.dtype([('observation', '<i4'), ('landmark', '<i4'), ('nis', '<f4'),
                                  ('probability', '<f4'), ('x', '<f4'), ('y', '<f4')])
@@ -35,6 +36,10 @@ def correspondences_cloud(header, association: Association, map_positions: np.nd
     """PointCloud2, one point per observation: index, landmark id (-1 new, -2 unassociated),
     NIS (NaN when none), probability (1 unless given), map-frame x, y."""
     k = len(association.assignment)
+    if k and packing_kernels.available():
+        data, has_nan = packing_kernels.run_correspondence_words(
+            association.assignment, association.nis, probabilities, map_positions)
+        return packed_cloud(data, k, CORRESPONDENCE_DTYPE, header, not has_nan)
     points = _correspondences(k).copy()
     points['landmark'] = association.assignment
     points['nis'] = association.nis

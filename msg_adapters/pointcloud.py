@@ -135,11 +135,19 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         for name in array.dtype.names:
             packed[name] = array[name]
     data = packed.tobytes()
+    return packed_cloud(data, len(array), packed_dtype, header,
+                        not _has_nan(data, len(array), packed_dtype.itemsize, float_runs))
+
+
+def packed_cloud(data: bytes, count: int, dtype: np.dtype, header=None,
+                 is_dense: bool = True) -> PointCloud2:
+    """PointCloud2 (height 1) of `count` points already packed in `data` as array_to_cloud
+    packs a structured array of `dtype` (fields in order, little-endian, no padding)."""
+    packed_dtype, fields, _ = _packed_layout(dtype)
     return PointCloud2(
-        header=Header() if header is None else header, height=1, width=len(array),
+        header=Header() if header is None else header, height=1, width=count,
         is_bigendian=False, point_step=packed_dtype.itemsize,
-        row_step=packed_dtype.itemsize * len(array), data=data,
-        is_dense=not _has_nan(data, len(array), packed_dtype.itemsize, float_runs),
+        row_step=packed_dtype.itemsize * count, data=data, is_dense=is_dense,
         fields=[PointField(name=name, offset=offset, count=1, datatype=datatype)
                 for name, offset, datatype in fields])
 

@@ -40,3 +40,19 @@ def test_quick_benchmarks_agree_with_the_reference(tmp_path):
     for row in budget_rows:
         cut, repeats = row[3].split('/')
         assert cut == repeats
+
+
+def test_node_latency_benchmark_answers_every_message_of_every_server():
+    """benchmarks/node_latency.py (the servers run together, taking turns) on a few messages:
+    the echo and association_node answer all of them (this run's domain, loopback)."""
+    import os
+    import subprocess
+    environment = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+                   'PYTHONPATH': os.pathsep.join([str(ROOT), os.environ.get('PYTHONPATH', '')])}
+    output = subprocess.run(
+        [sys.executable, str(ROOT / 'benchmarks' / 'node_latency.py'), '--messages', '6',
+         '--warmup', '1', '--algorithms', 'mahalanobis_nn'], env=environment,
+        capture_output=True, text=True, timeout=180, check=True).stdout
+    rows = {line[:26].strip(): line[26:].split() for line in output.splitlines()[2:]}
+    assert set(rows) == {'bare rclpy echo', 'mahalanobis_nn'}, output
+    assert all(row[0] == '6' for row in rows.values()), output

@@ -12,9 +12,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from msg_adapters import (array_to_cloud, cloud_points, correspondences_cloud,
+                          observations_from_points, packing_kernels)
+from std_msgs.msg import Header
+
 from data_association_ros import Landmarks, Observations, RobotPose
 from data_association_ros.core import jit, problem_kernels
-from data_association_ros.core.associators import jcbb_compiled, jcbb_kernels
+from data_association_ros.core.associators import REGISTRY, jcbb_compiled, jcbb_kernels
 from data_association_ros.core.associators.jcbb import individually_compatible
 from data_association_ros.core.errors import InvalidInputError
 from data_association_ros.core.initialisation import observations_in_map
@@ -167,11 +171,14 @@ def test_no_scan_compiles_a_kernel_version():
     """Inputs reach the kernels as read-only C views (the core's types store their arrays
     read-only), so after the warm-up no scan compiles a new version of a kernel (a fresh
     compile of range_bearing_nis also compiles the kernels it calls for its own arrays)."""
-    assert problem_kernels.KERNELS.available() and jcbb_compiled.available()
+    assert problem_kernels.KERNELS.available() and jcbb_compiled.available() and \
+        packing_kernels.available()
     kernels = [getattr(problem_kernels, name) for name in (
         'range_bearing_predict', 'prediction_covariances', 'nis_2d', 'range_bearing_nis',
         'range_bearing_in_map', 'pair_terms', 'is_covariance_matrix', 'are_spd_2x2',
-        'first_indefinite_block')] + [jcbb_kernels.gated_candidates, jcbb_kernels.search_layout]
+        'first_indefinite_block', 'observations_2d', 'nearest_within', 'gnn_split',
+        'label_columns')] + [jcbb_kernels.gated_candidates, jcbb_kernels.search_layout,
+                             packing_kernels.correspondence_words]
     versions = [len(kernel.signatures) for kernel in kernels]
     for seed in range(6):
         for model in ('range_bearing', 'point_map'):
@@ -182,7 +189,15 @@ def test_no_scan_compiles_a_kernel_version():
                 jcbb_compiled.CompiledSearch(problem, 0.99, candidates, order, None, 0).run()
                 problem.pair_terms(np.zeros(1, dtype=np.int32), np.zeros(1, dtype=np.int64)) \
                     if min(problem.sizes) else None
-                observations_in_map(problem.observations, problem.pose, joint)
+                positions, _ = observations_in_map(problem.observations, problem.pose, joint)
+                for name, extra in (('mahalanobis_nn', {'one_to_one': False}), ('gnn', {})):
+                    association = REGISTRY[name].run(problem, gate_probability=0.99,
+                                                     min_innovation_variance=0.0, **extra)
+                    correspondences_cloud(Header(), association, positions)
+                fields = ('range', 'bearing', 'var_bearing') if model == 'range_bearing' \
+                    else ('x', 'y', 'cov_yy')
+                scan = np.zeros(len(problem.observations), dtype=[(f, '<f4') for f in fields])
+                observations_from_points(cloud_points(array_to_cloud(scan)), model, [0.1])
         Observations(problem.observations.values, problem.observations.covariances.copy(),
                      problem.observations.model)
     assert [len(kernel.signatures) for kernel in kernels] == versions

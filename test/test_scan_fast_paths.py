@@ -1,5 +1,6 @@
 """The per-scan fast paths of association_node (issue 18) against the code they stand in for:
-mahalanobis_nn's nearest-within answer, the fused range-bearing kernel, observations in the map
+mahalanobis_nn's nearest-within answer, gnn's split and labels, observations read from float32
+words, the packed correspondences, the fused range-bearing kernel, observations in the map
 frame without the pose term, time matching, the NaN test of array_to_cloud, parameters resolved
 once, the outcome counts, and the candidate state when confirmed landmarks are not wanted.  Each test is fast (< 1 s)."""
 import re
@@ -12,12 +13,14 @@ from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 from std_msgs.msg import Header
 
-from msg_adapters import array_to_cloud, cloud_points, cloud_to_array, observations_from_points
+from msg_adapters import (array_to_cloud, cloud_points, cloud_to_array, correspondences_cloud,
+                          observations_from_points)
+from msg_adapters import inputs as inputs_module
 from msg_adapters.pointcloud import fields_of
 
 from data_association_ros import Observations, RobotPose
 from data_association_ros.bag.offline import node_config
-from data_association_ros.core import NEW, UNASSOCIATED, InvalidInputError, jit
+from data_association_ros.core import NEW, UNASSOCIATED, Association, InvalidInputError, jit
 from data_association_ros.core.api import _resolve
 from data_association_ros.core.associators import REGISTRY
 from data_association_ros.core.associators.base import nearest_neighbours, nearest_within, result
@@ -44,10 +47,12 @@ def range_bearing_problem(seed: int, joint: bool) -> AssociationProblem:
     return AssociationProblem(landmarks, observations, pose, state, [0.0, 1e-9, 0.3][seed % 3])
 
 
+@pytest.mark.parametrize('compiled', [True, False])
 @settings(max_examples=60, deadline=None)
 @given(k=st.integers(0, 6), n=st.integers(0, 6), data=st.data())
-def test_nearest_within_is_nearest_neighbours_inside_the_gate(k, n, data):
-    """Ties, inf and values on the bound included; K = 0 and N = 0 too."""
+def test_nearest_within_is_nearest_neighbours_inside_the_gate(compiled, k, n, data):
+    """Ties, inf and values on the bound included; K = 0 and N = 0 too; the kernel and the
+    numpy form."""
     nis = np.array(data.draw(st.lists(NIS_VALUES, min_size=k * n, max_size=k * n))).reshape(k, n)
     problem = range_bearing_problem(0, False)
     problem.__dict__['nis'] = nis
@@ -56,7 +61,8 @@ def test_nearest_within_is_nearest_neighbours_inside_the_gate(k, n, data):
         return
     gated = nis <= 9.21
     expected = result(problem, 'x', nearest_neighbours(nis, gated, False), gated)
-    got = nearest_within(problem, 'x', 9.21)
+    with jit.compiled(compiled):
+        got = nearest_within(problem, 'x', 9.21)
     np.testing.assert_array_equal(got.assignment, expected.assignment)
     np.testing.assert_array_equal(got.nis, expected.nis)
     assert got.assignment.dtype == np.int64 and not (got.assignment == UNASSOCIATED).any()
@@ -206,12 +212,13 @@ def full_matrix_gnn(nis: np.ndarray, gate: float) -> np.ndarray:
     return columns
 
 
+@pytest.mark.parametrize('compiled', [True, False])
 @settings(max_examples=300, deadline=None)
 @given(k=st.integers(0, 9), n=st.integers(0, 9), ties=st.booleans(), data=st.data())
-def test_gnn_solves_only_competing_pairs_as_the_whole_matrix(k, n, ties, data):
+def test_gnn_solves_only_competing_pairs_as_the_whole_matrix(compiled, k, n, ties, data):
     """Pairs alone in their row and column are decided without the Hungarian method: the same
     pairs as the whole matrix, also where whole numbers and values on the gate make equal-cost
-    optima."""
+    optima; the kernels' split and labels and the numpy form."""
     gate = chi2.ppf(0.99, 2)
     values = st.sampled_from([0.0, 1.0, 2.0, 3.0, 4.5, 6.0, gate, 10.0, np.inf]) if ties \
         else st.floats(0.0, 30.0)
@@ -224,5 +231,110 @@ def test_gnn_solves_only_competing_pairs_as_the_whole_matrix(k, n, ties, data):
         return
     gated = nis <= gate
     expected = result(problem, 'gnn', full_matrix_gnn(nis, gate), gated)
-    got = REGISTRY['gnn'].run(problem, gate_probability=0.99, min_innovation_variance=0.0)
+    with jit.compiled(compiled):
+        got = REGISTRY['gnn'].run(problem, gate_probability=0.99, min_innovation_variance=0.0)
     np.testing.assert_array_equal(got.assignment, expected.assignment)
+    np.testing.assert_array_equal(got.nis, expected.nis)
+    assert got.assignment.dtype == np.int64
+
+
+OBSERVATION_FIELDS = ('range', 'bearing', 'var_range', 'var_bearing', 'x', 'y', 'cov_xx',
+                      'cov_xy', 'cov_yy')
+
+
+def general_observations(points: np.ndarray, model: str, noise) -> object:
+    """observations_from_points by its field-by-field path (or the error it raises)."""
+    original = inputs_module._float32_columns
+    inputs_module._float32_columns = lambda dtype, model: None
+    try:
+        return observations_from_points(points, model, noise)
+    except InvalidInputError as error:
+        return str(error)
+    finally:
+        inputs_module._float32_columns = original
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data(), rows=st.integers(0, 6),
+       model=st.sampled_from(['range_bearing', 'point_map', 'point_robot']))
+def test_observations_from_float32_words_are_those_of_the_general_path(data, rows, model):
+    """Any layout (float32 at word boundaries or not, float64, big-endian, padding, missing
+    fields) and any values (NaN, inf, negative or indefinite variances): the same observations,
+    or the same error, compiled or not."""
+    names = data.draw(st.lists(st.sampled_from(OBSERVATION_FIELDS), unique=True, max_size=6))
+    formats = data.draw(st.lists(st.sampled_from(['<f4', '<f4', '<f8', '>f4']),
+                                 min_size=len(names), max_size=len(names)))
+    offsets, offset = [], 0
+    for kind in formats:
+        offset += data.draw(st.sampled_from([0, 0, 1, 4]))
+        offsets.append(offset)
+        offset += np.dtype(kind).itemsize
+    itemsize = offset + data.draw(st.sampled_from([0, 3, 4]))
+    dtype = np.dtype({'names': names, 'formats': formats, 'offsets': offsets,
+                      'itemsize': max(itemsize, 1)})
+    values = st.one_of(st.floats(-3.0, 3.0), st.floats(0.01, 2.0),
+                       st.sampled_from([np.nan, np.inf, 0.0, 1e30]))
+    points = np.zeros(rows, dtype=dtype)
+    for name in names:
+        points[name] = data.draw(st.lists(values, min_size=rows, max_size=rows))
+    points.flags.writeable = False
+    noise = data.draw(st.sampled_from([[0.01], [0.04, 1e-4], [-1.0]]))
+    expected = general_observations(points, model, noise)
+    for compiled in (True, False):
+        with jit.compiled(compiled):
+            try:
+                got = observations_from_points(points, model, noise)
+            except InvalidInputError as error:
+                got = str(error)
+        if isinstance(expected, str):
+            assert got == expected
+            continue
+        assert not isinstance(got, str), got
+        assert got.model == expected.model
+        np.testing.assert_array_equal(got.values, expected.values)
+        np.testing.assert_array_equal(got.covariances, expected.covariances)
+        assert not (got.values.flags.writeable or got.covariances.flags.writeable)
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data(), rows=st.integers(0, 8), given_probabilities=st.booleans())
+def test_correspondences_cloud_packed_by_the_kernel_as_by_numpy(data, rows,
+                                                              given_probabilities):
+    """Ids of any size (int32 casts alike), NaN and huge floats (is_dense alike)."""
+    floats = st.one_of(st.floats(-1e3, 1e3), st.sampled_from([np.nan, np.inf, 1e300]))
+    association = Association(
+        np.array(data.draw(st.lists(st.integers(-2, 2 ** 40), min_size=rows, max_size=rows)),
+                 dtype=np.int64),
+        np.array(data.draw(st.lists(floats, min_size=rows, max_size=rows)), dtype=float), 'x')
+    positions = np.array(data.draw(st.lists(floats, min_size=2 * rows, max_size=2 * rows)),
+                         dtype=float).reshape(rows, 2)
+    probabilities = np.array(data.draw(st.lists(floats, min_size=rows, max_size=rows)),
+                             dtype=float) if given_probabilities else None
+    header = Header(frame_id='base_link')
+    header.stamp.sec = 3
+    with np.errstate(over='ignore', invalid='ignore'):
+        packed = correspondences_cloud(header, association, positions, probabilities)
+        with jit.compiled(False):
+            reference = correspondences_cloud(header, association, positions, probabilities)
+    assert packed == reference
+
+
+def test_float32_words_read_where_every_field_is_one():
+    """The layouts DESIGN.md's clouds use take the one-pass path; others the general one."""
+    def columns(fields, model='range_bearing', itemsize=None):
+        dtype = np.dtype(fields) if itemsize is None else np.dtype(
+            {'names': [n for n, _ in fields], 'formats': [f for _, f in fields],
+             'offsets': [4 * i + 1 for i in range(len(fields))], 'itemsize': itemsize})
+        found = inputs_module._float32_columns(dtype, model)
+        return None if found is None else found.tolist()
+    f4 = '<f4'
+    assert columns([('range', f4), ('bearing', f4)]) == [0, 1, -1, -1, -1]
+    assert columns([('bearing', f4), ('range', f4), ('var_range', f4), ('var_bearing', f4)]) \
+        == [1, 0, 2, -1, 3]
+    assert columns([('x', f4), ('y', f4), ('cov_yy', f4), ('cov_xy', f4), ('cov_xx', f4)],
+                   'point_map') == [0, 1, 4, 3, 2]
+    assert columns([('x', f4), ('y', f4), ('cov_xx', f4)], 'point_robot') == [0, 1, -1, -1, -1]
+    assert columns([('range', '<f8'), ('bearing', f4)]) is None
+    assert columns([('range', f4), ('bearing', f4)], itemsize=12) is None   # offsets 1, 5
+    assert columns([('range', f4)]) is None
+    assert columns([('x', f4), ('y', f4), ('width', f4), ('height', f4)], 'box') is None

@@ -11,7 +11,12 @@ each quantity and keeps the numpy form, used without numba and inside jit.compil
 * is_covariance_matrix, are_spd_2x2: the checks of a joint covariance and of 2 x 2 covariance
   stacks on arrival;
 * first_indefinite_block: the first landmark whose [pose, landmark] block of a joint covariance
-  is not positive semi-definite (check_definite).
+  is not positive semi-definite (check_definite);
+* observations_2d: 2-D observations and their R from the float32 words of a point cloud,
+  checked as Observations checks them;
+* nearest_within: each row's first smallest NIS and its landmark id, inside a bound;
+* gnn_split: gnn's pairs alone in their row and column, and the cost matrix of the others;
+* label_columns: the assignment and NIS of chosen columns (associators.base.result).
 
 One pass over the data each instead of a few dozen numpy calls of 1-10 us; the arithmetic is
 numpy's (same formulas, same order within nis_2d; the 3 x 3 products may round differently).
@@ -263,23 +268,152 @@ def is_covariance_matrix(matrix):
 
 
 @njit
+def _is_spd_2x2(a, b, b_t, c):
+    """True when [[a, b], [b_t, c]] is finite, symmetric within 1e-9 and has its smaller
+    eigenvalue (a + c) / 2 - hypot((a - c) / 2, b) above 1e-12, both relative to 1 + max |entry|
+    (validation.check_spd's tests)."""
+    if not (np.isfinite(a) and np.isfinite(b) and np.isfinite(b_t) and np.isfinite(c)):
+        return False
+    scale = 1.0 + max(max(abs(a), abs(b)), max(abs(b_t), abs(c)))
+    if abs(b - b_t) > 1e-9 * scale:
+        return False
+    return 0.5 * (a + c) - np.hypot(0.5 * (a - c), b) > 1e-12 * scale
+
+
+@njit
 def are_spd_2x2(matrices):
-    """True when every matrix of the (n, 2, 2) stack is finite, symmetric within 1e-9 and has
-    its smaller eigenvalue (a + c) / 2 - hypot((a - c) / 2, b) above 1e-12, both relative to
-    1 + max |entry| (validation.check_spd's tests in one pass)."""
+    """True when every matrix of the (n, 2, 2) stack passes _is_spd_2x2 (validation.check_spd's
+    tests in one pass)."""
     for k in range(matrices.shape[0]):
-        a = matrices[k, 0, 0]
-        b = matrices[k, 0, 1]
-        b_t = matrices[k, 1, 0]
-        c = matrices[k, 1, 1]
-        if not (np.isfinite(a) and np.isfinite(b) and np.isfinite(b_t) and np.isfinite(c)):
-            return False
-        scale = 1.0 + max(max(abs(a), abs(b)), max(abs(b_t), abs(c)))
-        if abs(b - b_t) > 1e-9 * scale:
-            return False
-        if not 0.5 * (a + c) - np.hypot(0.5 * (a - c), b) > 1e-12 * scale:
+        if not _is_spd_2x2(matrices[k, 0, 0], matrices[k, 0, 1], matrices[k, 1, 0],
+                           matrices[k, 1, 1]):
             return False
     return True
+
+
+@njit
+def observations_2d(words, columns, fallback, values, covariances):
+    """values (K, 2) = words[:, columns[0:2]] and R (K, 2, 2) = [[w[c2], w[c3]], [w[c3], w[c4]]]
+    (w[c3] = 0 when columns[3] < 0; `fallback` for every R when columns[2] < 0), as float64,
+    from float32 words (K, W); returns the first k whose values are not finite or whose R fails
+    _is_spd_2x2 (Observations' checks), -1 when none."""
+    first = -1
+    for k in range(words.shape[0]):
+        v0 = np.float64(words[k, columns[0]])
+        v1 = np.float64(words[k, columns[1]])
+        values[k, 0] = v0
+        values[k, 1] = v1
+        if columns[2] >= 0:
+            a = np.float64(words[k, columns[2]])
+            b = np.float64(words[k, columns[3]]) if columns[3] >= 0 else 0.0
+            b_t = b
+            c = np.float64(words[k, columns[4]])
+        else:
+            a, b, b_t, c = fallback[0, 0], fallback[0, 1], fallback[1, 0], fallback[1, 1]
+        covariances[k, 0, 0] = a
+        covariances[k, 0, 1] = b
+        covariances[k, 1, 0] = b_t
+        covariances[k, 1, 1] = c
+        if first < 0 and not (np.isfinite(v0) and np.isfinite(v1)
+                              and _is_spd_2x2(a, b, b_t, c)):
+            first = k
+    return first
+
+
+@njit
+def nearest_within(nis, bound, ids, new, assignment, smallest_nis):
+    """Per row k of nis (K, N >= 1): its first smallest entry j (numpy's argmin; nis holds no
+    NaN); assignment[k] = ids[j] and smallest_nis[k] = nis[k, j] when that is at most `bound`,
+    else `new` and NaN."""
+    for k in range(nis.shape[0]):
+        best = 0
+        smallest = nis[k, 0]
+        for j in range(1, nis.shape[1]):
+            if nis[k, j] < smallest:
+                smallest = nis[k, j]
+                best = j
+        if smallest <= bound:
+            assignment[k] = ids[best]
+            smallest_nis[k] = smallest
+        else:
+            assignment[k] = new
+            smallest_nis[k] = np.nan
+
+
+@njit
+def gnn_split(nis, gate, columns):
+    """gnn's decomposition of nis (K, N) gated at `gate`: columns[k] = j for each gated pair
+    (k, j) alone in its row and its column (else -1); returns (rows (R,), shared (S,), cost
+    (R, S + R)): the rows and columns of the other gated pairs, ascending, and the Hungarian
+    method's matrix over them (their NIS, inf where not gated, `gate` on the diagonal of the
+    last R columns: each row's 'unpaired' column)."""
+    k, n = nis.shape
+    row_count = np.zeros(k, dtype=np.int64)
+    row_first = np.zeros(k, dtype=np.int64)     # the first gated column of each row
+    column_count = np.zeros(n, dtype=np.int64)
+    for i in range(k):
+        for j in range(n):
+            if nis[i, j] <= gate:
+                if row_count[i] == 0:
+                    row_first[i] = j
+                row_count[i] += 1
+                column_count[j] += 1
+    row_index = np.full(k, -1, dtype=np.int64)
+    column_index = np.full(n, -1, dtype=np.int64)
+    for i in range(k):   # only the rows with two or more gated pairs are read again
+        columns[i] = -1
+        if row_count[i] == 1:
+            j = row_first[i]
+            if column_count[j] == 1:
+                columns[i] = j
+            else:
+                row_index[i] = 0
+                column_index[j] = 0
+        elif row_count[i] > 1:
+            row_index[i] = 0
+            for j in range(n):
+                if nis[i, j] <= gate:
+                    column_index[j] = 0
+    rows = np.flatnonzero(row_index >= 0)
+    shared = np.flatnonzero(column_index >= 0)
+    for r in range(rows.shape[0]):
+        row_index[rows[r]] = r
+    for s in range(shared.shape[0]):
+        column_index[shared[s]] = s
+    count = rows.shape[0]
+    cost = np.full((count, shared.shape[0] + count), np.inf)
+    for r in range(count):
+        i = rows[r]
+        for j in range(n):
+            if nis[i, j] <= gate and column_index[j] >= 0:
+                cost[r, column_index[j]] = nis[i, j]
+        cost[r, shared.shape[0] + r] = gate
+    return rows, shared, cost
+
+
+@njit
+def label_columns(nis, columns, rows, shared, picked_rows, picked, ids, gate, new, unassociated,
+                  assignment, chosen_nis):
+    """columns (K,) completed by the Hungarian method's answer on gnn_split's cost matrix
+    (picked_rows[e] paired with column picked[e]: row rows[picked_rows[e]] takes landmark
+    shared[picked[e]] when picked[e] < len(shared)); then assignment[k] = ids[columns[k]] and
+    chosen_nis[k] = nis[k, columns[k]] where columns[k] >= 0, else UNASSOCIATED when a NIS of
+    row k is at most `gate` (gated), NEW when none is, and NaN."""
+    for e in range(picked_rows.shape[0]):
+        if picked[e] < shared.shape[0]:
+            columns[rows[picked_rows[e]]] = shared[picked[e]]
+    for k in range(nis.shape[0]):
+        column = columns[k]
+        if column >= 0:
+            assignment[k] = ids[column]
+            chosen_nis[k] = nis[k, column]
+            continue
+        assignment[k] = new
+        chosen_nis[k] = np.nan
+        for j in range(nis.shape[1]):
+            if nis[k, j] <= gate:
+                assignment[k] = unassociated
+                break
 
 
 @njit
@@ -440,6 +574,51 @@ def run_are_spd_2x2(matrices: np.ndarray) -> bool:
     return bool(are_spd_2x2(_read_only(matrices)))
 
 
+def run_observations_2d(words: np.ndarray, columns: np.ndarray, fallback: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, int]:
+    """(values (K, 2), R (K, 2, 2), first bad k or -1) by observations_2d from float32 words
+    (K, W), the 5 word indices `columns` (int64) and the fallback R (2, 2)."""
+    count = words.shape[0]
+    values, covariances = np.empty((count, 2)), np.empty((count, 2, 2))
+    first = observations_2d(_read_only(words, np.float32), _read_only(columns, np.int64),
+                            _read_only(fallback), values, covariances)
+    return values, covariances, int(first)
+
+
+def run_nearest_within(nis: np.ndarray, bound: float, ids: np.ndarray, new: int
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(assignment (K,) int64, NIS of the pair or NaN (K,)) by nearest_within for nis (K, N),
+    N >= 1, and the landmark ids (N,) int64."""
+    count = nis.shape[0]
+    assignment, smallest = np.empty(count, dtype=np.int64), np.empty(count)
+    nearest_within(_read_only(nis), float(bound), _read_only(ids, np.int64), int(new),
+                   assignment, smallest)
+    return assignment, smallest
+
+
+def run_gnn_split(nis: np.ndarray, gate: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(columns (K,) intp, rows (R,), shared (S,), cost (R, S + R)) by gnn_split."""
+    columns = np.empty(nis.shape[0], dtype=np.intp)
+    rows, shared, cost = gnn_split(_read_only(nis), float(gate), columns)
+    return columns, rows, shared, cost
+
+
+def run_label_columns(nis: np.ndarray, columns: np.ndarray, rows: np.ndarray,
+                      shared: np.ndarray, picked_rows: np.ndarray, picked: np.ndarray,
+                      ids: np.ndarray, gate: float, new: int, unassociated: int
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """(assignment (K,) int64, NIS of the chosen pairs or NaN (K,)) by label_columns; columns:
+    run_gnn_split's (completed in place)."""
+    count = nis.shape[0]
+    assignment, chosen = np.empty(count, dtype=np.int64), np.empty(count)
+    label_columns(_read_only(nis), columns, _read_only(rows, np.intp),
+                  _read_only(shared, np.intp), _read_only(picked_rows, np.intp),
+                  _read_only(picked, np.intp), _read_only(ids, np.int64), float(gate), int(new),
+                  int(unassociated), assignment, chosen)
+    return assignment, chosen
+
+
 def run_first_indefinite_block(state: np.ndarray, n: int, d: int) -> int:
     """first_indefinite_block of a joint covariance of n landmarks of dimension d."""
     return int(first_indefinite_block(_read_only(state), int(n), int(d)))
@@ -477,6 +656,33 @@ def _warm_up() -> None:
     if run_first_indefinite_block(np.eye(7), 2, 2) != -1 or \
             run_first_indefinite_block(-np.eye(7), 2, 2) != 0:
         raise RuntimeError('first_indefinite_block warm-up: wrong answer')
+    words = np.array([[3.0, 0.5, 0.25, 0.0, 0.01], [np.nan, 0.0, 1.0, 0.0, 1.0]], np.float32)
+    values, covariances, first = run_observations_2d(words, np.array([0, 1, 2, 3, 4]),
+                                                     np.eye(2))
+    _, fallback_covariances, _ = run_observations_2d(words[:1], np.array([0, 1, -1, -1, -1]),
+                                                     np.eye(2))
+    if not (first == 1 and np.allclose(values[0], [3.0, 0.5])
+            and np.allclose(covariances[0], np.diag([0.25, 0.01]))
+            and np.array_equal(fallback_covariances[0], np.eye(2))):
+        raise RuntimeError(f'observations_2d warm-up: {values} {covariances} {first}')
+    assignment, smallest = run_nearest_within(np.array([[4.0, 1.0], [9.0, 8.0]]), 5.0,
+                                              np.array([7, 9]), -1)
+    if not (assignment.tolist() == [9, -1] and smallest[0] == 1.0 and np.isnan(smallest[1])):
+        raise RuntimeError(f'nearest_within warm-up: {assignment} {smallest}')
+    columns, rows, shared_columns, cost = run_gnn_split(
+        np.array([[1.0, 20.0, 20.0], [20.0, 2.0, 3.0], [20.0, 4.0, 20.0]]), 9.0)
+    if not (columns.tolist() == [0, -1, -1] and rows.tolist() == [1, 2]
+            and shared_columns.tolist() == [1, 2]
+            and np.array_equal(cost, [[2.0, 3.0, 9.0, np.inf], [4.0, np.inf, np.inf, 9.0]])):
+        raise RuntimeError(f'gnn_split warm-up: {columns} {rows} {shared_columns} {cost}')
+    nis = np.array([[1.0, 20.0], [5.0, 20.0], [20.0, 20.0], [20.0, 3.0]])
+    picked = np.array([0, 1])   # row rows[0] = 3 takes shared[0] = 1, row 1 its own column
+    assignment, smallest = run_label_columns(
+        nis, np.array([0, -1, -1, -1]), np.array([3, 1]), np.array([1]), np.array([0, 1]),
+        picked, np.array([7, 9]), 9.0, -1, -2)
+    if not (assignment.tolist() == [7, -2, -1, 9] and smallest.tolist()[::3] == [1.0, 3.0]
+            and np.isnan(smallest[1:3]).all()):
+        raise RuntimeError(f'label_columns warm-up: {assignment} {smallest}')
     r = np.tile(np.eye(2), (1, 1, 1))
     for shared in (True, False):   # nu = (1, 0), S = 1 + 1
         nis = run_nis_2d(np.array([[1.0, 0.0]]), np.zeros((2, 2)), (1,), joint, r, shared, 0.0)

@@ -154,6 +154,35 @@ class Observations:
                                         values.shape[1])
         _set_read_only(self, values=values, covariances=covariances, model=model)
 
+    @classmethod
+    def from_float32_columns(cls, words: np.ndarray, columns: np.ndarray, model: str,
+                             fallback: np.ndarray) -> 'Observations':
+        """2-D observations of `model` from float32 words (K, W) (a point cloud's points seen as
+        4-byte words): values (K, 2) = words[:, columns[0:2]]; R (K, 2, 2) =
+        [[w[c2], w[c3]], [w[c3], w[c4]]] (w[c3] = 0 when columns[3] < 0), or `fallback` (2, 2)
+        for all when columns[2] < 0; columns: 5 word indices.  The same object and the same
+        errors as Observations(values, R, model), checked in one compiled pass when it can be."""
+        kernels = jit.problem_kernels()
+        if kernels is not None:
+            values, covariances, first = kernels.run_observations_2d(words, columns, fallback)
+            if first < 0 and model in MEASUREMENT_DIMENSIONS and \
+                    2 in MEASUREMENT_DIMENSIONS[model]:   # passes every check of __init__
+                observations = object.__new__(cls)
+                _set_read_only(observations, values=values, covariances=covariances,
+                               model=model)
+                return observations
+        else:
+            values = words[:, columns[:2]].astype(np.float64)
+            if columns[2] >= 0:
+                covariances = np.zeros((len(words), 2, 2))
+                covariances[:, 0, 0] = words[:, columns[2]]
+                covariances[:, 1, 1] = words[:, columns[4]]
+                if columns[3] >= 0:
+                    covariances[:, 0, 1] = covariances[:, 1, 0] = words[:, columns[3]]
+            else:
+                covariances = np.broadcast_to(fallback, (len(words), 2, 2)).copy()
+        return cls(values, covariances, model)   # names what is wrong
+
     def __len__(self) -> int:
         return int(self.values.shape[0])
 

@@ -24,7 +24,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
-from msg_adapters import diagnostics_message
+from msg_adapters import diagnostics_message, packing_kernels
 
 from ..core import problem_kernels
 from ..core.associators import jcbb_compiled
@@ -49,7 +49,8 @@ class AssociationNode(ParameterizedNode):
         if not self.start_up_seconds['compiled']:
             self.get_logger().info('kernels not compiled (same answers, slower): '
                                    f'{problem_kernels.KERNELS.unavailable_reason() or "-"}; '
-                                   f'{jcbb_compiled.unavailable_reason() or "-"}')
+                                   f'{jcbb_compiled.unavailable_reason() or "-"}; '
+                                   f'{packing_kernels.KERNELS.unavailable_reason() or "-"}')
 
         qos = QoSProfile(depth=config['qos_depth'], reliability=(
             ReliabilityPolicy.BEST_EFFORT if config['input_qos'] == 'sensor_data'
@@ -84,7 +85,10 @@ class AssociationNode(ParameterizedNode):
         self.diagnostics_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.create_timer(config['diagnostics_period'], self.publish_diagnostics)
         self._waiting: deque = deque()   # (observation message, wall time it arrived)
-        self.create_timer(0.05, self._answer_waiting)
+        # runs only while messages wait: an idle node is not woken 20 times a second (each
+        # wake-up rebuilds the executor's wait set, and a scan arriving then waits for it)
+        self._waiting_timer = self.create_timer(0.05, self._answer_waiting)
+        self._waiting_timer.cancel()
         self.ready_text = (f'association_node ready: algorithm {config["algorithm"]}, '
                            f'measurement_model {config["measurement_model"]}')
 
@@ -111,6 +115,8 @@ class AssociationNode(ParameterizedNode):
             if len(self._waiting) > MAX_WAITING:
                 self._answer(self._waiting.popleft()[0])
             self._answer_waiting()
+            if self._waiting and self._waiting_timer.is_canceled():
+                self._waiting_timer.reset()
             return
         self._answer(msg)
 
@@ -124,6 +130,7 @@ class AssociationNode(ParameterizedNode):
                 return
             self._waiting.popleft()
             self._answer(msg)
+        self._waiting_timer.cancel()
 
     def _answer(self, msg: PointCloud2) -> None:
         # the optional outputs only for topics someone subscribes to (building them costs)

@@ -1,7 +1,8 @@
 """Start-up work done before a node reports ready, so that its first scan costs what later ones do.
 
 * the compiled kernels are compiled, or loaded from numba's on-disk cache: the problem's
-  arithmetic (core/problem_kernels.py) and the JCBB search (core/associators/jcbb_compiled.py);
+  arithmetic (core/problem_kernels.py), the JCBB search (core/associators/jcbb_compiled.py)
+  and the output packing (msg_adapters/packing_kernels.py);
 * the chi-square thresholds of the configured gate probabilities are computed for
   1..WARM_DOF degrees of freedom (scipy's chi2.ppf costs about 0.3 ms a call; JCBB needs m l
   of them for l pairs, cached once computed);
@@ -17,7 +18,7 @@ import numpy as np
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Header
 
-from msg_adapters import array_to_cloud
+from msg_adapters import array_to_cloud, packing_kernels
 
 from ..core import jit
 from ..core.associators import REGISTRY, jcbb_compiled
@@ -61,8 +62,9 @@ def warm_up(config: dict[str, Any]) -> dict[str, float]:
     spent: dict[str, float] = {}
     started = time.perf_counter()
     problem_kernels_ready = jit.problem_kernels() is not None
-    search_ready = jcbb_compiled.available()   # both, even when one of them failed
-    spent['compiled'] = float(problem_kernels_ready and search_ready)
+    search_ready = jcbb_compiled.available()   # all, even when one of them failed
+    packing_ready = packing_kernels.available()
+    spent['compiled'] = float(problem_kernels_ready and search_ready and packing_ready)
     spent['compile_s'] = time.perf_counter() - started
     started = time.perf_counter()
     for probability in {config['gate_probability'], config['joint_gate_probability']}:

@@ -6,6 +6,7 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
+from .. import jit
 from ..gating import Gate
 from ..parameters import ParameterSpec
 from ..problem import AssociationProblem
@@ -74,6 +75,11 @@ def nearest_within(problem: AssociationProblem, name: str, bound: float) -> Asso
     k, n = nis.shape
     if n == 0:
         return Association(np.full(k, NEW, dtype=np.int64), np.full(k, np.nan), name)
+    kernels = jit.problem_kernels()
+    if kernels is not None:   # the same in one compiled pass
+        assignment, smallest = kernels.run_nearest_within(nis, bound, problem.landmarks.ids,
+                                                          NEW)
+        return Association(assignment=assignment, nis=smallest, algorithm=name)
     best = nis.argmin(axis=1)
     smallest = nis[np.arange(k), best]
     inside = smallest <= bound

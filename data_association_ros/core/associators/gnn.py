@@ -2,8 +2,10 @@
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .. import jit
 from ..gating import chi2_threshold, nis_gate
 from ..parameters import GATE_PROBABILITY, MIN_INNOVATION_VARIANCE
+from ..types import NEW, UNASSOCIATED, Association
 from .base import NO_LANDMARK, Associator, result
 
 
@@ -17,6 +19,14 @@ def run(problem, gate_probability: float, min_innovation_variance: float):
     nis = problem.nis
     k, n = nis.shape
     gate = chi2_threshold(gate_probability, problem.observations.dim)
+    kernels = jit.problem_kernels() if k and n else None
+    if kernels is not None:   # the same steps in two compiled passes around scipy's
+        columns, rows, shared, cost = kernels.run_gnn_split(nis, gate)
+        picked_rows, picked = linear_sum_assignment(cost) if len(rows) else (rows, rows)
+        assignment, chosen = kernels.run_label_columns(
+            nis, columns, rows, shared, picked_rows, picked, problem.landmarks.ids, gate, NEW,
+            UNASSOCIATED)
+        return Association(assignment=assignment, nis=chosen, algorithm='gnn')
     gated = nis <= gate
     columns = np.full(k, NO_LANDMARK, dtype=np.intp)
     pair_rows, pair_columns = np.divmod(np.flatnonzero(gated), n)   # 2-D nonzero: 10x slower
