@@ -14,6 +14,7 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from data_association_ros.core import InvalidInputError
+from data_association_ros.core.models import wrap_angle
 
 from .pointcloud import array_to_cloud, cloud_to_array
 
@@ -78,6 +79,7 @@ def tracks_cloud(header, tracks: Sequence, time: float) -> PointCloud2:
         points['id'] = [t.id for t in tracks]
         for k, name in enumerate(('x', 'y', 'yaw', 'vx', 'vy', 'yaw_rate')):
             points[name] = states[:, k]
+        points['yaw'] = wrap_angle(states[:, 2])   # a coasting track's is not wrapped
         points['length'] = [t.length for t in tracks]
         points['width'] = [t.width for t in tracks]
         for name, (i, j) in (('cov_xx', (0, 0)), ('cov_xy', (0, 1)), ('cov_yy', (1, 1)),

@@ -125,3 +125,36 @@ def test_refuses_bad_settings():
         InteractingModels(X0, P0, [0.5, -0.1], switch_time=1.0)
     with pytest.raises(ValueError):
         InteractingModels(X0, P0, [0.5, 0.5], switch_time=0.0)
+
+
+def test_angles_combine_and_mix_on_one_branch():
+    """Models at +179 and -179 deg (angle component 0) combine at 180 deg with the spread of 2
+    deg, not at 0 deg with a spread of 358; one mixing step keeps them near 180 deg."""
+    x, p = np.array([0.0, 0.0]), np.eye(2) * 1e-4
+    imm = InteractingModels(x, p, [0.5, 0.5], switch_time=1.0, angles=(0,))
+    imm.models[0].x = np.array([np.radians(179.0), 0.0])
+    imm.models[1].x = np.array([np.radians(-179.0), 0.0])
+    imm._combine()
+    assert np.isclose(abs(imm.x[0]), np.pi, atol=1e-12)
+    assert np.isclose(imm.p[0, 0], 1e-4 + np.radians(1.0) ** 2, rtol=1e-9)
+    imm.predict(lambda s: (s.copy(), np.eye(2)), [np.zeros((2, 2))] * 2, 0.1)
+    for model in imm.models:
+        assert np.isclose(abs(np.cos(model.x[0])), 1.0, atol=1e-3) and np.cos(model.x[0]) < 0
+    plain = InteractingModels(x, p, [0.5, 0.5], switch_time=1.0)   # no angles: arithmetic mean
+    plain.models[0].x = np.array([np.radians(179.0), 0.0])
+    plain.models[1].x = np.array([np.radians(-179.0), 0.0])
+    plain._combine()
+    assert abs(plain.x[0]) < 1e-12
+
+
+def test_a_model_of_probability_zero_keeps_its_state():
+    """A model whose probability fell to exactly 0 (a very unlikely update) and a step of
+    dt = 0 (no switching) leaves that model as it was, not at the zero state."""
+    imm = InteractingModels(X0, P0, [0.5, 0.5], switch_time=1.0)
+    imm.h, imm.r = H, R
+    imm.probabilities = np.array([0.0, 1.0])
+    imm.models[0].x = np.array([2.5, 0.7])
+    imm.predict(linear, [Q_CALM, Q_AGILE], 0.0)
+    np.testing.assert_allclose(imm.models[0].x, F @ np.array([2.5, 0.7]))
+    assert np.trace(imm.models[0].p) > 0
+    assert imm.probabilities.tolist() == [0.0, 1.0]

@@ -492,3 +492,24 @@ def test_a_point_past_a_corner_paired_up_the_end_face_reads_as_the_side_it_lies_
     held = point_to_line_correction(*args, sensor=sensor, reach=0.15)
     assert abs(held.translation[0]) < 1e-4 and abs(held.translation[1]) < 1e-4
     assert held.covariance[0, 0] > 0.5                        # along the side: unobserved
+
+
+@pytest.mark.parametrize('yaw', [7.0, -9.5, np.pi, -np.pi, 0.3])
+def test_published_yaw_is_wrapped_also_for_a_coasting_track(yaw):
+    """A track that coasts is predicted without the wrap an update applies: its yaw can leave
+    (-pi, pi]; the tracks cloud publishes it wrapped (the same heading), the rest as it is."""
+    from msg_adapters import cloud_to_array
+    from msg_adapters.lidar import tracks_cloud
+    from std_msgs.msg import Header
+
+    from data_association_ros.core.lidar.object_tracker import ObjectTrack
+    from data_association_ros.core.tracking.kalman import KalmanFilter
+    state = np.array([1.0, 2.0, yaw, 0.5, -0.5, 0.1])
+    track = ObjectTrack(id=4, filter=KalmanFilter(state, np.eye(6), np.eye(6), np.eye(6),
+                                                  np.eye(3, 6), np.eye(3)),
+                        length=0.55, width=0.3, anchor=np.zeros(2))
+    point = cloud_to_array(tracks_cloud(Header(), [track], 0.0))[0]
+    assert -np.pi < point['yaw'] <= np.pi + 1e-6
+    assert np.isclose(np.cos(point['yaw']), np.cos(yaw), atol=1e-6) and \
+        np.isclose(np.sin(point['yaw']), np.sin(yaw), atol=1e-6)
+    assert (point['x'], point['y'], point['id']) == (1.0, 2.0, 4)

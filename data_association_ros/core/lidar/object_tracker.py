@@ -603,7 +603,7 @@ def motion_filter(x: np.ndarray, p: np.ndarray, config: TrackerConfig
     """A new track's filter at (x (6,), P (6, 6)): one Kalman filter, or with
     calm_yaw_accel_sigma an IMM of the calm and the yaw_accel_sigma model, equally likely."""
     if config.calm_yaw_accel_sigma > 0:
-        return InteractingModels(x, p, (0.5, 0.5), config.model_switch_time)
+        return InteractingModels(x, p, (0.5, 0.5), config.model_switch_time, angles=(2,))
     return KalmanFilter(x, p, np.eye(6), np.eye(6), np.eye(6), np.eye(6))
 
 

@@ -14,7 +14,9 @@ moment-matched mixture x = sum_j mu_j x_j, P = sum_j mu_j (P_j + (x_j - x)(x_j -
 
 The owner may edit x (in place or by assigning a new array): the edit moves every model's state
 by the same amount before the next predict or update.  Assigning a new P restarts every model at
-(x, P) with the initial probabilities.
+(x, P) with the initial probabilities.  Angle components (`angles`) are mixed and combined on
+the branch of the most probable model (models at +179 and -179 deg combine at 180, not 0).  A
+model whose predicted probability c_j is 0 keeps its own state (no mixture to take).
 """
 from __future__ import annotations
 
@@ -33,7 +35,7 @@ class InteractingModels:
     probabilities (M,): the models' probabilities."""
 
     def __init__(self, x: np.ndarray, p: np.ndarray, probabilities: Sequence[float],
-                 switch_time: float) -> None:
+                 switch_time: float, angles: Sequence[int] = ()) -> None:
         initial = np.asarray(probabilities, dtype=float)
         if initial.ndim != 1 or initial.size < 1 or np.any(initial < 0) or initial.sum() <= 0:
             raise ValueError(f'probabilities: {probabilities!r} are not M >= 1 non-negative '
@@ -42,6 +44,7 @@ class InteractingModels:
             raise ValueError(f'switch_time: {switch_time!r} is not positive')
         self.initial = initial / initial.sum()
         self.switch_time = float(switch_time)
+        self.angles = tuple(int(a) for a in angles)
         n = len(x)
         self.h, self.r = np.eye(n), np.eye(n)
         self._restart(np.asarray(x, dtype=float), np.asarray(p, dtype=float))
@@ -52,9 +55,20 @@ class InteractingModels:
         self.probabilities = self.initial.copy()
         self._combine()
 
+    def _states(self) -> np.ndarray:
+        """The models' states (M, n), angle components on the most probable model's branch."""
+        states = np.array([m.x for m in self.models])
+        if self.angles and len(states) > 1:
+            reference = states[int(np.argmax(self.probabilities))]
+            for a in self.angles:   # only those more than pi away move (the rest exactly kept)
+                far = np.abs(states[:, a] - reference[a]) > np.pi
+                states[far, a] = reference[a] + (np.mod(states[far, a] - reference[a] + np.pi,
+                                                        2 * np.pi) - np.pi)
+        return states
+
     def _combine(self) -> None:
         mu = self.probabilities
-        states = np.array([m.x for m in self.models])
+        states = self._states()
         x = mu @ states
         spread = states - x
         p = np.einsum('j,jab->ab', mu, np.array([m.p for m in self.models])) \
@@ -89,8 +103,8 @@ class InteractingModels:
         pi = self.switching(dt)
         weights = pi * self.probabilities[:, None]  # (i, j)
         c = weights.sum(axis=0)
-        weights = weights / np.where(c > 0, c, 1.0)
-        states = np.array([m.x for m in self.models])
+        weights = np.where(c > 0, weights / np.where(c > 0, c, 1.0), np.eye(len(c)))
+        states = self._states()
         covariances = np.array([m.p for m in self.models])
         for j, model in enumerate(self.models):
             x0 = weights[:, j] @ states
