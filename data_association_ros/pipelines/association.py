@@ -27,6 +27,7 @@ from ..core import NEW, Association, InvalidInputError, Landmarks, RobotPose
 from ..core.candidates import CandidateManager, CandidateUpdate
 from ..core.initialisation import observations_in_map
 from ..core.models import MODELS
+from ..core.map_refinding import REFINDING_PARAMETERS, MapRefinder, RefindingConfig
 from ..core.pose_recovery import RECOVERED, PoseRecovery, associate_with_pose_recovery
 from ..core.spatial_index import INDEX_MIN_LANDMARKS, landmark_index
 from .multi_hypothesis_stage import MultiHypothesisStage
@@ -65,6 +66,16 @@ class StampedCovariance:
 CANDIDATE_SETTINGS = itemgetter('confirm_hits', 'confirm_window', 'candidate_max_misses',
                                 'gate_probability', 'euclidean_gate', 'iou_threshold')
 """The values of CandidateManager.configure's parameters in a config, in its order."""
+
+
+@lru_cache(maxsize=16, typed=True)
+def _refinding_config(values: tuple) -> RefindingConfig:
+    return RefindingConfig(*values)
+
+
+def refinding_config(config: dict[str, Any]) -> RefindingConfig:
+    """The RefindingConfig of a node config (built once per set of values)."""
+    return _refinding_config(tuple(config[spec.name] for spec in REFINDING_PARAMETERS))
 
 
 @lru_cache(maxsize=16, typed=True)
@@ -108,6 +119,7 @@ class AssociationPipeline:
         self._candidate_settings: tuple = ()   # the values of CANDIDATE_SETTINGS in force
         self.odometry_history: StampedBuffer = StampedBuffer(200)
         self.multi_hypothesis = MultiHypothesisStage()
+        self.refinder = MapRefinder(refinding_config(config))
 
     def _reject(self, counter, cause: str, text: str) -> None:
         counter[cause] += 1
@@ -294,6 +306,9 @@ class AssociationPipeline:
             pose_recovery(config['recovery_position_std'], config['recovery_yaw_std'],
                           config['recovery_min_new']),
             spatial_index=True if too_many_pairs else None, **algorithm_arguments(config))
+        if config['refind_window_scans'] > 0 and pose is not None:
+            result, pose = self._refind(config, landmarks, observations, pose, state_covariance,
+                                        result, too_many_pairs)
         # candidate_pose_uncertainty false: the observation noise alone (a SLAM's pose error is
         # common to consecutive scans and would only widen every candidate gate; ttk4250 with
         # 20 clutter returns per scan: 66 false landmarks confirmed 3 scans in a row with it,
@@ -323,6 +338,30 @@ class AssociationPipeline:
                                           self.candidates.expired_total,
                                           len(self.candidates.pending))
         return answer
+
+    def _refind(self, config: dict[str, Any], landmarks: Landmarks, observations, pose: RobotPose,
+                state_covariance, first: Association, too_many_pairs: bool
+                ) -> tuple[Association, RobotPose]:
+        """core/map_refinding.py: the scan associated again from the re-found pose when the
+        window registers onto the old landmarks and that pairs more observations with them;
+        (answer, the pose it was made from)."""
+        self.refinder.reconfigure(refinding_config(config))
+        positions, _ = observations_in_map(observations, pose, False)
+        registration = self.refinder.refind(landmarks, positions, pose, first)
+        if registration is None:
+            return first, pose
+        moved = registration.pose(pose)
+        second = associate_with_pose_recovery(
+            landmarks, observations, config['algorithm'], moved, state_covariance,
+            pose_recovery(config['recovery_position_std'], config['recovery_yaw_std'],
+                          config['recovery_min_new']),
+            spatial_index=True if too_many_pairs else None, **algorithm_arguments(config))
+        if self.refinder.paired_old(landmarks, second) <= \
+                self.refinder.paired_old(landmarks, first):
+            return first, pose
+        self.refinder.kept(registration)
+        self.statistics.refound += 1
+        return second, moved
 
     def _answer_multi_hypothesis(self, config, msg, points, model, item, stamp: int,
                                  started: float) -> Optional[Answer]:

@@ -13,6 +13,7 @@ from ..core import InvalidInputError, available_algorithms
 from ..core.associators import REGISTRY
 from ..core.candidates import check_confirmation
 from ..core.parameters import ParameterSpec
+from ..core.map_refinding import REFINDING_PARAMETERS
 from ..core.pose_recovery import RECOVERY_PARAMETERS
 
 MULTI_HYPOTHESIS = 'multi_hypothesis'
@@ -102,6 +103,7 @@ NODE_PARAMETERS: tuple[NodeParameter, ...] = (
                   'when the pose error is common to consecutive scans, as in a SLAM filter)',
                   spec=ParameterSpec('candidate_pose_uncertainty', True, '', kind=bool)),
     *(_from_spec(spec) for spec in RECOVERY_PARAMETERS),
+    *(_from_spec(spec) for spec in REFINDING_PARAMETERS),
     NodeParameter('reevaluation_window', 5, 'multi_hypothesis: past steps re-evaluated and '
                   'published on past_associations', spec=ParameterSpec(
                       'reevaluation_window', 5, '', kind=int, low=1, high=1000)),

@@ -37,6 +37,7 @@ class AssociationStatistics(WarningThrottle):
         self.fallbacks: Counter = Counter()   # answered, but with less than was sent
         self.truncated = 0
         self.pose_recoveries = 0
+        self.refound = 0   # scans answered from a re-found pose (core/map_refinding.py)
         self.candidates_confirmed = 0
         self.candidates_expired = 0
         self.candidates_pending = 0
@@ -79,6 +80,7 @@ class AssociationStatistics(WarningThrottle):
             'observations_unassociated': self.outcomes['unassociated'],
             'search_truncations': self.truncated,
             'pose_recoveries': self.pose_recoveries,
+            'map_refound': self.refound,
             'landmarks_confirmed': self.candidates_confirmed,
             'candidates_expired': self.candidates_expired,
             'candidates_pending': self.candidates_pending,
