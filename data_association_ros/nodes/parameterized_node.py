@@ -177,10 +177,14 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
         sys.exit(str(error))
     try:
         try:
+            # the executor is made before "ready": a Ctrl-C right after it cannot interrupt the
+            # executor's construction (whose __del__ would then print a traceback)
+            executor = rclpy.executors.SingleThreadedExecutor(context=node.context)
+            executor.add_node(node)
             freeze_start_up_objects()
             if getattr(node, 'ready_text', ''):   # after the freeze: a Ctrl-C right after
                 node.get_logger().info(node.ready_text)   # "ready" no longer lands in gc
-            rclpy.spin(node)
+            executor.spin()
         except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
             pass
         except Exception:
