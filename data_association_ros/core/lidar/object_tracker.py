@@ -31,15 +31,18 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    track if it has min_pairs points and is not larger than max_size_ratio x the size class's
    prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
-   found again), as is a track not updated for more than max_age seconds (max_hidden_age while
+   found again; a confirmed one gives its id to a newer track not yet confirmed), as is a track not updated for more than max_age seconds (max_hidden_age while
    the beams towards it return from something nearer or it is out of their range:
    free_space.blocked_share);
 8. two-point start: a track never corrected whose one cluster it cannot match (an object that
    moved farther than the fine association reaches from a start at rest) is fitted anew to the
    cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
 9. hand-over: a track started from a cluster that an established (min_hits) coasting track took
-   in the coarse association but could not correct is that object found again: it takes the
-   coasting track's id and speed (handed_velocity), and the coasting track is dropped.
+   in the coarse association but could not correct is that object found again when it lies in
+   the coasting track's same-object gate (chi-square on x, y, vx, vy, both covariances): it
+   takes the coasting track's id and speed (handed_velocity), and the coasting track is dropped;
+10. continuation: a track confirmed at t (its min_hits-th update) within the same-object gate of
+   a confirmed track born before it and not updated at t takes that track's id, which is dropped.
 
 Added to the seed (why: README "LiDAR object tracking"): the boundary is a rectangle model with
 an estimated extent (completed by the size class's priors on the hidden side) sampled on its
@@ -74,6 +77,7 @@ from .parameters import TrackerConfig
 from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
+MOTION = np.array([0, 1, 3, 4])  # x, y, vx, vy in the state
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
 MAX_COORDINATE = 1e5
 """Points farther than this [m] on either axis count as no return."""
@@ -121,7 +125,7 @@ class ObjectTrack:
     """A tracked rigid object: id, filter (state [x, y, yaw, vx, vy, yaw_rate] of the rectangle's
     centre), rectangle length and width [m], last cluster centroid in the object frame (anchor),
     update count, time [s] and posterior (x, y, yaw) of the last update, and this scan's matched
-    scan points."""
+    scan points; continues: it took over an older track's id."""
 
     id: int
     filter: KalmanFilter | InteractingModels
@@ -136,6 +140,7 @@ class ObjectTrack:
     born: float = 0.0
     vote: float = 0.0
     votes: int = 0
+    continues: bool = False
 
     def corners(self, state: Optional[np.ndarray] = None) -> np.ndarray:
         """The rectangle's corners (4, 2) at the track's (or the given) state."""
@@ -260,12 +265,15 @@ class LidarObjectTracker:
                                and t.hits >= config.min_hits and self._hidden(t)))
                        and max(t.length, t.width) <= largest
                        and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
+        self._continue_confirmed(time)
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
             if np.count_nonzero(labels == cluster) >= config.min_pairs:
                 started = self._start(points[labels == cluster], occluded[cluster], time)
-                if started is not None and any(t is lost.get(cluster) for t in self.tracks):
-                    self._hand_over(lost[cluster], started)
+                old = lost.get(cluster)
+                if started is not None and any(t is old for t in self.tracks) \
+                        and self._same_object(old, started) is not None:
+                    self._hand_over(old, started)
         return self.reported()
 
     def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
@@ -276,9 +284,37 @@ class LidarObjectTracker:
         speed is what is left of it), and old is dropped.  Its
         pose and heading are new's fit."""
         self.tracks = [t for t in self.tracks if t is not old]
-        new.id = old.id
+        new.id, new.continues = old.id, True
         self._next_id -= 1
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
+
+    def _same_object(self, old: ObjectTrack, new: ObjectTrack) -> Optional[float]:
+        """d2 = e^T (P_old + P_new)^-1 e of e = new - old in (x, y, vx, vy), or None when it is
+        outside the chi-square gate (gate_probability, 4 dof): the newer track may be the
+        older one's object (a coasting track's covariance has grown with its prediction)."""
+        index = np.ix_(MOTION, MOTION)
+        error = new.filter.x[MOTION] - old.filter.x[MOTION]
+        try:
+            d2 = float(error @ np.linalg.solve(old.filter.p[index] + new.filter.p[index], error))
+        except np.linalg.LinAlgError:
+            return None
+        return d2 if d2 <= chi2_threshold(self.config.gate_probability, len(MOTION)) else None
+
+    def _continue_confirmed(self, time: float) -> None:
+        """A track confirmed at `time` (its min_hits-th update) that is within _same_object's
+        gate of a confirmed track not updated since the young one was started continues it:
+        it takes the nearest such track's id, and that track is dropped (a young track started
+        beside a coasting one took the object's returns when they came back)."""
+        config = self.config
+        for young in [t for t in self.tracks if t.updated == time and t.hits == config.min_hits
+                      and not t.continues]:
+            gated = [(d2, t) for t in self.tracks
+                     if t.updated < time and t.born < young.born and t.hits >= config.min_hits
+                     for d2 in [self._same_object(t, young)] if d2 is not None]
+            if gated:
+                old = min(gated, key=lambda pair: pair[0])[1]
+                young.id, young.continues = old.id, True
+                self.tracks = [t for t in self.tracks if t is not old]
 
     def _hidden(self, track: ObjectTrack) -> bool:
         """Whether the track's predicted rectangle is hidden in this scan: at least
@@ -310,17 +346,23 @@ class LidarObjectTracker:
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
-        that was (the same object, found again by a newer track)."""
+        that was (the same object, found again by a newer track); a confirmed one dropped for a
+        track not yet confirmed (nor continuing another) gives it its id."""
         updated = [t for t in self.tracks if t.updated == time]
         if not updated:
             return
         keep = []
         for track in self.tracks:
             if track.updated != time:
-                inside = [np.all(np.abs((track.filter.x[:2] - other.filter.x[:2])
-                                        @ rotation(other.filter.x[2]))
-                                 <= [other.length / 2, other.width / 2]) for other in updated]
-                if any(inside):
+                inside = [other for other in updated
+                          if np.all(np.abs((track.filter.x[:2] - other.filter.x[:2])
+                                           @ rotation(other.filter.x[2]))
+                                    <= [other.length / 2, other.width / 2])]
+                if inside:
+                    young = inside[0]
+                    if track.hits >= self.config.min_hits and \
+                            young.hits < self.config.min_hits and not young.continues:
+                        young.id, young.continues = track.id, True
                     continue
             keep.append(track)
         self.tracks = keep
