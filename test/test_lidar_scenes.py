@@ -6,11 +6,13 @@ from hypothesis import given, settings, strategies as st
 
 from data_association_ros.bag.lidar_eval import run_offline, scans_from_messages, score
 from data_association_ros.bag.lidar_motion import Pieces, Stadium
-from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, Scene,
+from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, KINDS, Scene,
                                                          SceneObject, race_scene, random_scene)
 from data_association_ros.bag.lidar_seeds import configuration
 from data_association_ros.core.lidar import LidarObjectTracker, TrackerConfig
-from data_association_ros.core.lidar.object_tracker import SETTLE_TIME, SLOW_VOTE, heading_turn
+from data_association_ros.core.lidar.object_tracker import (SETTLE_TIME, SLOW_VOTE, ObjectTrack,
+                                                             heading_turn)
+from data_association_ros.core.tracking.kalman import KalmanFilter
 from data_association_ros.pipelines.lidar_tracking import PoseHistory, to_frame
 
 NO_WALLS = np.zeros((0, 2, 2))
@@ -304,8 +306,6 @@ def test_handed_velocity_keeps_the_speed_along_the_length_axis():
 
 
 def _track(track_id, state, variances, hits, updated, born=0.0, length=0.55, width=0.3):
-    from data_association_ros.core.lidar.object_tracker import ObjectTrack
-    from data_association_ros.core.tracking.kalman import KalmanFilter
     motion = KalmanFilter(np.asarray(state, float), np.diag(np.asarray(variances, float)),
                           np.eye(6), np.eye(6), np.eye(6), np.eye(6))
     return ObjectTrack(track_id, motion, length, width, np.zeros(2), hits=hits,
@@ -354,13 +354,11 @@ def test_young_track_beside_a_coasting_one_continues_its_id():
     assert [t.id for t in tracker.tracks] == [3, 4, 2]
 
 
-
 def test_race_seed_106_hidden_opponent_keeps_its_id():
     """Race seed 106 (a table seed), opponent 2 hidden behind opponent 1 on the curve for about
     1 s.  Measured before the same-object gate and the id continuation: its track drifted on
     with the curve's yaw rate, was dropped, and the car came back as a new track (ids [1, 12]);
     now one id, within the F1Tenth limits."""
-    from data_association_ros.bag.lidar_random_scene import KINDS
     scans = scans_from_messages(KINDS['race'](106).messages())
     estimates, _ = run_offline(scans, configuration('race', TrackerConfig()))
     result = score(scans, estimates)[2]

@@ -25,15 +25,16 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
    turned round, or fitted anew along the velocity (shape.fit_at); a track is reported only once
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
-   SETTLE_TIME unless its velocity is voting to turn it); the rectangle grows or moves to contain the matched points (shape.contain), and
-   is cut back where beams pass through it (free_space.carve: a prior longer than the object);
+   SETTLE_TIME unless its velocity is voting to turn it); the rectangle grows or moves to
+   contain the matched points (shape.contain), and is cut back where beams pass through it
+   (free_space.carve: a prior longer than the object);
 7. a cluster no track took, or taken by a coasting track that it could not correct, starts a
    track if it has min_pairs points and is not larger than max_size_ratio x the size class's
    prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
-   found again; a confirmed one gives its id to a newer track not yet confirmed), as is a track not updated for more than max_age seconds (max_hidden_age while
-   the beams towards it return from something nearer or it is out of their range:
-   free_space.blocked_share);
+   found again; a confirmed one gives its id to a newer track not yet confirmed), as is a
+   track not updated for more than max_age seconds (max_hidden_age while the beams towards it
+   return from something nearer or it is out of their range: free_space.blocked_share);
 8. two-point start: a track never corrected whose one cluster it cannot match (an object that
    moved farther than the fine association reaches from a start at rest) is fitted anew to the
    cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
@@ -77,8 +78,9 @@ from .parameters import TrackerConfig
 from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
-MOTION = np.array([0, 1, 3, 4])  # x, y, vx, vy in the state
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
+MOTION = np.array([0, 1, 3, 4])
+"""Indices of x, y, vx, vy in the state (the same-object gate's components)."""
 MAX_COORDINATE = 1e5
 """Points farther than this [m] on either axis count as no return."""
 FLIP_RATE = 0.25
@@ -141,6 +143,10 @@ class ObjectTrack:
     vote: float = 0.0
     votes: int = 0
     continues: bool = False
+
+    def continue_from(self, old: 'ObjectTrack') -> None:
+        """Take over old's id (the same object, found again by this track)."""
+        self.id, self.continues = old.id, True
 
     def corners(self, state: Optional[np.ndarray] = None) -> np.ndarray:
         """The rectangle's corners (4, 2) at the track's (or the given) state."""
@@ -284,7 +290,7 @@ class LidarObjectTracker:
         speed is what is left of it), and old is dropped.  Its
         pose and heading are new's fit."""
         self.tracks = [t for t in self.tracks if t is not old]
-        new.id, new.continues = old.id, True
+        new.continue_from(old)
         self._next_id -= 1
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
 
@@ -301,10 +307,11 @@ class LidarObjectTracker:
         return d2 if d2 <= chi2_threshold(self.config.gate_probability, len(MOTION)) else None
 
     def _continue_confirmed(self, time: float) -> None:
-        """A track confirmed at `time` (its min_hits-th update) that is within _same_object's
-        gate of a confirmed track not updated since the young one was started continues it:
-        it takes the nearest such track's id, and that track is dropped (a young track started
-        beside a coasting one took the object's returns when they came back)."""
+        """A track confirmed at `time` (its min_hits-th update, not itself continuing another)
+        that is within _same_object's gate of a confirmed track born before it and not updated
+        at `time` continues it: it takes the nearest (least d2) such track's id, and that track
+        is dropped (a young track started beside a coasting one took the object's returns when
+        they came back)."""
         config = self.config
         for young in [t for t in self.tracks if t.updated == time and t.hits == config.min_hits
                       and not t.continues]:
@@ -313,7 +320,7 @@ class LidarObjectTracker:
                      for d2 in [self._same_object(t, young)] if d2 is not None]
             if gated:
                 old = min(gated, key=lambda pair: pair[0])[1]
-                young.id, young.continues = old.id, True
+                young.continue_from(old)
                 self.tracks = [t for t in self.tracks if t is not old]
 
     def _hidden(self, track: ObjectTrack) -> bool:
@@ -362,7 +369,7 @@ class LidarObjectTracker:
                     young = inside[0]
                     if track.hits >= self.config.min_hits and \
                             young.hits < self.config.min_hits and not young.continues:
-                        young.id, young.continues = track.id, True
+                        young.continue_from(track)
                     continue
             keep.append(track)
         self.tracks = keep
