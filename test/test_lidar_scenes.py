@@ -354,6 +354,38 @@ def test_young_track_beside_a_coasting_one_continues_its_id():
     assert [t.id for t in tracker.tracks] == [3, 4, 2]
 
 
+@pytest.mark.parametrize('occluders', [False, True])
+def test_no_track_starts_from_a_cluster_hidden_at_both_ends(occluders):
+    """A 0.64 m piece of wall 8 m away (beams -0.04..0.04 rad) starts a track when nothing
+    hides its ends; between two small objects 4 m away (beams -0.08..-0.045 and 0.045..0.08 rad,
+    both ends of the wall piece occluded) it starts none, the two objects each start one."""
+    angles = np.arange(-0.3, 0.3001, 0.005)
+    ranges = np.full(len(angles), np.nan)
+    ranges[np.abs(angles) <= 0.04 + 1e-9] = 8.0
+    if occluders:
+        ranges[(np.abs(angles) > 0.04 + 1e-9) & (np.abs(angles) <= 0.08 + 1e-9)] = 4.0
+    points = ranges[:, None] * np.column_stack([np.cos(angles), np.sin(angles)])
+    tracker = LidarObjectTracker(configuration('f1tenth_static', TrackerConfig()))
+    tracker.step(points, 0.0, directions=np.column_stack([np.cos(angles), np.sin(angles)]))
+    distances = sorted(float(np.hypot(*t.filter.x[:2])) for t in tracker.tracks)
+    if occluders:
+        assert len(distances) == 2 and max(distances) < 5.0, distances
+    else:
+        assert len(distances) == 1 and 7.5 < distances[0] < 9.0, distances
+
+
+def test_race_seed_521_wall_between_two_shadows_is_no_car():
+    """Race seed 521 (a check seed): the piece of wall seen between the two opponents' shadows
+    slid with them and was tracked as a car at 6.8 m/s 0.75 m beside opponent 2, whose id it
+    later took (measured before the rule: ids [2, 8]); a cluster occluded at both ends starts no
+    track now, and opponent 2 keeps one id within the F1Tenth limits."""
+    scans = scans_from_messages(KINDS['race'](521).messages())
+    estimates, _ = run_offline(scans, configuration('race', TrackerConfig()))
+    result = score(scans, estimates)[2]
+    assert result.id_switches == 0 and len(result.track_ids) == 1, result
+    assert result.position_rmse < 0.05 and result.heading_rmse_deg < 5.0, result
+
+
 def test_race_seed_106_hidden_opponent_keeps_its_id():
     """Race seed 106 (a table seed), opponent 2 hidden behind opponent 1 on the curve for about
     1 s.  Measured before the same-object gate and the id continuation: its track drifted on

@@ -29,8 +29,10 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    contain the matched points (shape.contain), and is cut back where beams pass through it
    (free_space.carve: a prior longer than the object);
 7. a cluster no track took, or taken by a coasting track that it could not correct, starts a
-   track if it has min_pairs points and is not larger than max_size_ratio x the size class's
-   prior length (walls are background) (shape.fit_rectangle; velocity 0, uncertain); a track not
+   track (shape.fit_rectangle; velocity 0, uncertain) if it has min_pairs points, is not larger
+   than max_size_ratio x the size class's prior length (walls are background) and is not
+   occluded at both ends (a piece of wall seen between two objects' shadows slides with them:
+   race seed 521, such a track at 6.8 m/s beside the car whose id it later took); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
    found again; a confirmed one gives its id to a newer track not yet confirmed), as is a
    track not updated for more than max_age seconds (max_hidden_age while the beams towards it
@@ -274,7 +276,8 @@ class LidarObjectTracker:
         self._continue_confirmed(time)
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
-            if np.count_nonzero(labels == cluster) >= config.min_pairs:
+            if np.count_nonzero(labels == cluster) >= config.min_pairs \
+                    and not occluded[cluster].all():  # maybe background between two shadows
                 started = self._start(points[labels == cluster], occluded[cluster], time)
                 old = lost.get(cluster)
                 if started is not None and any(t is old for t in self.tracks) \
