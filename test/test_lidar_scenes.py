@@ -354,6 +354,30 @@ def test_young_track_beside_a_coasting_one_continues_its_id():
     assert [t.id for t in tracker.tracks] == [3, 4, 2]
 
 
+def test_a_new_track_is_found_again_as_the_nearest_gated_track():
+    """A new track at the car (at rest, velocity std 10 m/s) is inside the same-object gate of
+    the car's own track (updated 0.03 s before, 0.1 m off: d2 = 0.01 / 0.10 + 9.33^2 / 101 =
+    0.96) and of a wide coasting track 7.1 m away (d2 = 7.1^2 / 20.09 + 0.1^2 / 120 = 2.51):
+    it is the car's (car_static seed 518: the wide one, which took the car's cluster in the
+    coarse association, handed its id before); a confirmed track updated now, or one not yet
+    confirmed, is never found again, nor one coasting longer that did not take the cluster."""
+    config = configuration('car_static', TrackerConfig())
+    tracker = LidarObjectTracker(config)
+    car = _track(1, [25.0, 7.8, 0, 9.33, 0, 0], [0.01, 0.01, 0.01, 1, 1, 1], 140, 4.47)
+    wide = _track(2, [18.0, 7.8, 0, 0.1, 0, 0], [20, 20, 1, 20, 20, 1], 36, 2.9, length=17.7)
+    new = _track(3, [25.1, 7.8, 0, 0, 0, 0], [0.09, 0.09, 0.04, 100, 100, 1], 1, 4.5, born=4.5)
+    tracker.tracks = [wide, car, new]
+    assert np.isclose(tracker._same_object(car, new), 0.01 / 0.1 + 9.33 ** 2 / 101)
+    assert np.isclose(tracker._same_object(wide, new), 7.1 ** 2 / 20.09 + 0.1 ** 2 / 120)
+    assert tracker._found_again(new, 4.5, 4.47, wide) is car
+    assert tracker._found_again(new, 4.5, 4.47, None) is car
+    car.updated = 4.5
+    assert tracker._found_again(new, 4.5, 4.47, wide) is wide
+    assert tracker._found_again(new, 4.5, 4.47, None) is None  # wide coasts since 2.9 s
+    wide.hits = config.min_hits - 1
+    assert tracker._found_again(new, 4.5, 4.47, wide) is None
+
+
 @pytest.mark.parametrize('occluders', [False, True])
 def test_no_track_starts_from_a_cluster_hidden_at_both_ends(occluders):
     """A 0.64 m piece of wall 8 m away (beams -0.04..0.04 rad) starts a track when nothing

@@ -40,10 +40,11 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 8. two-point start: a track never corrected whose one cluster it cannot match (an object that
    moved farther than the fine association reaches from a start at rest) is fitted anew to the
    cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
-9. hand-over: a track started from a cluster that an established (min_hits) coasting track took
-   in the coarse association but could not correct is that object found again when it lies in
-   the coasting track's same-object gate (chi-square on x, y, vx, vy, both covariances): it
-   takes the coasting track's id and speed (handed_velocity), and the coasting track is dropped;
+9. hand-over: a track started at t within the same-object gate (chi-square on x, y, vx, vy,
+   both covariances) of an established (min_hits) track not updated at t, either the coasting
+   one that took its cluster in the coarse association but could not correct it or one updated
+   at the previous scan, is that object found again: it takes the id and speed (handed_velocity)
+   of the nearest (least d2) such track, which is dropped;
 10. continuation: a track confirmed at t (its min_hits-th update) within the same-object gate of
    a confirmed track born before it and not updated at t takes that track's id, which is dropped.
 
@@ -279,19 +280,34 @@ class LidarObjectTracker:
             if np.count_nonzero(labels == cluster) >= config.min_pairs \
                     and not occluded[cluster].all():  # maybe background between two shadows
                 started = self._start(points[labels == cluster], occluded[cluster], time)
-                old = lost.get(cluster)
-                if started is not None and any(t is old for t in self.tracks) \
-                        and self._same_object(old, started) is not None:
+                old = None if started is None else \
+                    self._found_again(started, time, before, lost.get(cluster))
+                if old is not None:
                     self._hand_over(old, started)
         return self.reported()
 
+    def _found_again(self, new: ObjectTrack, time: float, before: Optional[float],
+                     taken: Optional[ObjectTrack]) -> Optional[ObjectTrack]:
+        """Of the confirmed tracks not updated at `time` that either took new's cluster in the
+        coarse association but could not correct it (`taken`, coasting) or were updated at the
+        previous scan `before`, the nearest (least d2) within _same_object's gate of the track
+        `new` started at `time`, or None: the object `new` found again.  The one updated the
+        scan before counts too (car_static seed 518: a 17.7 m wall-like track coasting for
+        1.6 s, with the widest gate, took a car's cluster and handed the car's new track its id,
+        while the car's own track, updated the scan before, lay 0.1 m away); a track coasting
+        longer that did not take the cluster does not (race seeds 21 and 216: the opponents
+        swapped ids)."""
+        gated = [(d2, t) for t in self.tracks
+                 if t.updated < time and t.hits >= self.config.min_hits
+                 and (t is taken or (before is not None and t.updated >= before))
+                 for d2 in [self._same_object(t, new)] if d2 is not None]
+        return min(gated, key=lambda pair: pair[0])[1] if gated else None
+
     def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
-        """The track `new`, started from a cluster that the coasting track `old` took in the
-        coarse association (within its grown gate) but could not correct, is the same object
+        """The track `new`, started near `old`'s prediction (_found_again), is the same object
         found again: it takes over old's id and old's speed, along new's length axis, the way
         nearer to old's velocity (while it coasted, the yaw rate turned old's prediction; the
-        speed is what is left of it), and old is dropped.  Its
-        pose and heading are new's fit."""
+        speed is what is left of it), and old is dropped.  Its pose and heading are new's fit."""
         self.tracks = [t for t in self.tracks if t is not old]
         new.continue_from(old)
         self._next_id -= 1
