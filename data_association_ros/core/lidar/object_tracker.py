@@ -297,11 +297,9 @@ class LidarObjectTracker:
         while the car's own track, updated the scan before, lay 0.1 m away); a track coasting
         longer that did not take the cluster does not (race seeds 21 and 216: the opponents
         swapped ids)."""
-        gated = [(d2, t) for t in self.tracks
-                 if t.updated < time and t.hits >= self.config.min_hits
-                 and (t is taken or (before is not None and t.updated >= before))
-                 for d2 in [self._same_object(t, new)] if d2 is not None]
-        return min(gated, key=lambda pair: pair[0])[1] if gated else None
+        return self._nearest_same_object(new, [
+            t for t in self.tracks if t.updated < time and t.hits >= self.config.min_hits
+            and (t is taken or (before is not None and t.updated >= before))])
 
     def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
         """The track `new`, started near `old`'s prediction (_found_again), is the same object
@@ -325,6 +323,13 @@ class LidarObjectTracker:
             return None
         return d2 if d2 <= chi2_threshold(self.config.gate_probability, len(MOTION)) else None
 
+    def _nearest_same_object(self, new: ObjectTrack, candidates: list[ObjectTrack]
+                             ) -> Optional[ObjectTrack]:
+        """The candidate with the least _same_object d2 to `new` within its gate, or None."""
+        gated = [(d2, t) for t in candidates
+                 for d2 in [self._same_object(t, new)] if d2 is not None]
+        return min(gated, key=lambda pair: pair[0])[1] if gated else None
+
     def _continue_confirmed(self, time: float) -> None:
         """A track confirmed at `time` (its min_hits-th update, not itself continuing another)
         that is within _same_object's gate of a confirmed track born before it and not updated
@@ -334,11 +339,10 @@ class LidarObjectTracker:
         config = self.config
         for young in [t for t in self.tracks if t.updated == time and t.hits == config.min_hits
                       and not t.continues]:
-            gated = [(d2, t) for t in self.tracks
-                     if t.updated < time and t.born < young.born and t.hits >= config.min_hits
-                     for d2 in [self._same_object(t, young)] if d2 is not None]
-            if gated:
-                old = min(gated, key=lambda pair: pair[0])[1]
+            old = self._nearest_same_object(young, [
+                t for t in self.tracks
+                if t.updated < time and t.born < young.born and t.hits >= config.min_hits])
+            if old is not None:
                 young.continue_from(old)
                 self.tracks = [t for t in self.tracks if t is not old]
 
