@@ -27,7 +27,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
    SETTLE_TIME unless its velocity is voting to turn it); the rectangle grows or moves to
    contain the matched points (shape.contain), and is cut back where beams pass through it
-   (free_space.carve: a prior longer than the object);
+   (free_space.carve: a prior longer than the object); once the corrections have turned the
+   heading by more than EXTENT_SWING since the rectangle was fitted, it is fitted anew along
+   the heading (what was grown and cut was along axes since found wrong);
 7. a cluster no track took, or taken by a coasting track that it could not correct, starts a
    track (shape.fit_rectangle; velocity 0, uncertain) if it has min_pairs points, is not larger
    than max_size_ratio x the size class's prior length (walls are background) and is not
@@ -35,16 +37,20 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    race seed 521, such a track at 6.8 m/s beside the car whose id it later took); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
    found again; a confirmed one gives its id to a newer track not yet confirmed), as is a
-   track not updated for more than max_age seconds (max_hidden_age while the beams towards it
-   return from something nearer or it is out of their range: free_space.blocked_share);
+   track not updated for more than max_age seconds (max_hidden_age, for a confirmed track,
+   while the beams towards it return from something nearer or it is out of their range:
+   free_space.blocked_share, or while it takes a cluster in the coarse association that it
+   cannot correct yet: an object coming back into view at the edge of the field of view shows
+   a few returns near its prediction, while the beams beside them pass through the rest);
 8. two-point start: a track never corrected whose one cluster it cannot match (an object that
    moved farther than the fine association reaches from a start at rest) is fitted anew to the
    cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
 9. hand-over: a track started at t within the same-object gate (chi-square on x, y, vx, vy,
    both covariances) of an established (min_hits) track not updated at t, either the coasting
-   one that took its cluster in the coarse association but could not correct it or one updated
-   at the previous scan, is that object found again: it takes the id and speed (handed_velocity)
-   of the nearest (least d2) such track, which is dropped;
+   one that took its cluster in the coarse association but could not correct it (also when it
+   was dropped by age at t) or one updated at the previous scan, is that object found again: it
+   takes the id and speed (handed_velocity) of the nearest (least d2) such track, which is
+   dropped;
 10. continuation: a track confirmed at t (its min_hits-th update) within the same-object gate of
    a confirmed track born before it and not updated at t takes that track's id, which is dropped.
 
@@ -98,6 +104,11 @@ CARVE_SHARE, CARVE_ANGLE = 0.1, np.deg2rad(20.0)
 at CARVE_ANGLE or more and its path through the rectangle runs along at least CARVE_SHARE of the
 width (length), and 2 point_sigma (free_space.carve): a heading a few degrees off while the
 object turns makes a beam along a face look as if it passed through the rectangle."""
+EXTENT_SWING = np.deg2rad(20.0)
+"""The extent is fitted anew (shape.fit_at, completed by the priors) once the corrections have
+turned the heading by more than this since it was last fitted: it was grown and cut back along
+axes now known to be wrong (a width cut to 0.07 m under a start heading 128 deg off stays so
+when only the other face is ever seen)."""
 HIDDEN_SHARE = 0.9
 """A coasting track is hidden (kept up to max_hidden_age) when this share of the beams towards
 its predicted rectangle return before reaching it."""
@@ -146,6 +157,7 @@ class ObjectTrack:
     vote: float = 0.0
     votes: int = 0
     continues: bool = False
+    swung: float = 0.0
 
     def continue_from(self, old: 'ObjectTrack') -> None:
         """Take over old's id (the same object, found again by this track)."""
@@ -268,12 +280,15 @@ class LidarObjectTracker:
             elif track.hits >= config.min_hits:
                 lost.update({cluster: track for cluster in clusters})
         largest = config.max_size_ratio * max(config.priors())
-        self.tracks = [t for t in self.tracks if (
-                           time - t.updated <= config.max_age
-                           or (time - t.updated <= config.max_hidden_age
-                               and t.hits >= config.min_hits and self._hidden(t)))
-                       and max(t.length, t.width) <= largest
+        self.tracks = [t for t in self.tracks if max(t.length, t.width) <= largest
                        and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
+        taking = {id(t) for t in lost.values()}  # coasting, took a cluster it cannot correct
+        aged = [t for t in self.tracks if not (
+                    time - t.updated <= config.max_age
+                    or (time - t.updated <= config.max_hidden_age
+                        and t.hits >= config.min_hits
+                        and (id(t) in taking or self._hidden(t))))]
+        self.tracks = [t for t in self.tracks if all(t is not a for a in aged)]
         self._continue_confirmed(time)
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
@@ -281,13 +296,15 @@ class LidarObjectTracker:
                     and not occluded[cluster].all():  # maybe background between two shadows
                 started = self._start(points[labels == cluster], occluded[cluster], time)
                 old = None if started is None else \
-                    self._found_again(started, time, before, lost.get(cluster))
+                    self._found_again(started, time, before, lost.get(cluster), aged)
                 if old is not None:
                     self._hand_over(old, started)
+                    aged = [t for t in aged if t is not old]
         return self.reported()
 
     def _found_again(self, new: ObjectTrack, time: float, before: Optional[float],
-                     taken: Optional[ObjectTrack]) -> Optional[ObjectTrack]:
+                     taken: Optional[ObjectTrack], aged: list[ObjectTrack]
+                     ) -> Optional[ObjectTrack]:
         """Of the confirmed tracks not updated at `time` that either took new's cluster in the
         coarse association but could not correct it (`taken`, coasting) or were updated at the
         previous scan `before`, the nearest (least d2) within _same_object's gate of the track
@@ -296,9 +313,12 @@ class LidarObjectTracker:
         1.6 s, with the widest gate, took a car's cluster and handed the car's new track its id,
         while the car's own track, updated the scan before, lay 0.1 m away); a track coasting
         longer that did not take the cluster does not (race seeds 21 and 216: the opponents
-        swapped ids)."""
+        swapped ids).  `aged`: the tracks dropped by age at `time`; of them only `taken` can be
+        found again (an F1Tenth car back from behind a 270-deg LiDAR: its coasting track took
+        the first returns, could not correct itself with them and was dropped at that scan)."""
         return self._nearest_same_object(new, [
-            t for t in self.tracks if t.updated < time and t.hits >= self.config.min_hits
+            t for t in self.tracks + [t for t in aged if t is taken]
+            if t.updated < time and t.hits >= self.config.min_hits
             and (t is taken or (before is not None and t.updated >= before))])
 
     def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
@@ -509,8 +529,10 @@ class LidarObjectTracker:
         if innovation @ np.linalg.solve(track.filter.innovation_covariance(), innovation) > \
                 chi2_threshold(config.gate_probability, len(innovation)):
             return False
+        before = x[2]
         track.filter.update(z[rows])
         x = track.filter.x
+        track.swung += wrap_angle(x[2] - before)
         turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
                                      FLIP_RATE * max(config.priors()),
                                      SIGMAS_TO_TURN if track.settled
@@ -530,13 +552,15 @@ class LidarObjectTracker:
         if abs(turn) > 3:  # pointing backwards: the same rectangle, turned round
             x[2] += np.pi
             track.anchor = -track.anchor
-        elif turn:  # the axes were mistaken: the rectangle anew along the velocity
+        elif turn or abs(track.swung) > EXTENT_SWING:
+            # the axes were mistaken, or the extent was cut along a heading since corrected:
+            # the rectangle anew along the velocity (or the heading)
             hidden = self._occluded[clusters[0]] if len(clusters) == 1 else None
             centre, yaw, length, width = fit_at(scan, x[2] + turn, *self.config.priors(),
                                                 sensor=self.sensor, occluded=hidden,
                                                 directed=True)
             x[:3] = [centre[0], centre[1], yaw]
-            track.length, track.width = length, width
+            track.length, track.width, track.swung = length, width, 0.0
         x[2] = wrap_angle(x[2])
         self._grow(track, track.matched, scan, compensation,
                    self._face_ends(points, labels, clusters, ends))
