@@ -338,12 +338,12 @@ def test_an_f1tenth_car_back_from_behind_the_sensor_keeps_its_id(radius, speed, 
     [deg], drives through the 90 deg behind the sensor that no beam covers (hidden 1.2-2.7 s,
     less than max_hidden_age) and comes back at the edge of the field of view.  Its coasting
     prediction is there (0.13 m off for radius 2, speed 1.6, start 90) but its position std
-    has grown to metres and its first returns are too few to correct it: before, the track was dropped at that scan (more than
-    max_age without an update, and the beams along the edge pass through part of its predicted
-    rectangle, so not hidden) and the car came back under a new id, ids [1, 2] in all four.
-    Now a confirmed track that took a cluster in the coarse association is kept (up to
-    max_hidden_age), and one dropped by age at the scan a new track starts from the cluster it
-    took hands its id over."""
+    has grown to metres and its first returns are too few to correct it: before, the track was
+    dropped at that scan (more than max_age without an update, and the beams along the edge
+    pass through part of its predicted rectangle, so not hidden) and the car came back under a
+    new id, ids [1, 2] in all four.  Now a confirmed track that took a cluster in the coarse
+    association is kept (up to max_hidden_age) and hands its id to the track started from
+    that cluster."""
     scans = _circle_through_the_blind_sector(radius, speed, start)
     unseen = sum(scan.truth['visible'][0] < 3 for scan in scans) / F1TENTH_LIDAR.rate_hz
     assert 1.0 < unseen < 3.0
@@ -365,7 +365,7 @@ def _circle_through_the_blind_sector(radius, speed, start):
 
 @pytest.mark.parametrize('radius, speed, start', [(1.5, 0.8, 90.0), (3.0, 1.6, 100.0)])
 def test_an_extent_cut_along_a_wrong_heading_is_fitted_anew(radius, speed, start, monkeypatch):
-    """The car of the test below comes back at the edge of the field of view, and its new
+    """The car of the test above comes back at the edge of the field of view, and its new
     track's first rectangle is fitted to 5 returns with the heading off the car's axis (35 deg
     for radius 1.5; 131 deg, 49 off the axis, for radius 3.0, whose width is then cut back
     along it to 0.06 m and, as the sensor at the circle's centre only ever sees the car's inner

@@ -369,19 +369,13 @@ def test_a_new_track_is_found_again_as_the_nearest_gated_track():
     tracker.tracks = [wide, car, new]
     assert np.isclose(tracker._same_object(car, new), 0.01 / 0.1 + 9.33 ** 2 / 101)
     assert np.isclose(tracker._same_object(wide, new), 7.1 ** 2 / 20.09 + 0.1 ** 2 / 120)
-    assert tracker._found_again(new, 4.5, 4.47, wide, []) is car
-    assert tracker._found_again(new, 4.5, 4.47, None, []) is car
-    # dropped by age at this scan (not in tracks): found again only when it took the cluster
-    tracker.tracks = [car, new]
-    assert tracker._found_again(new, 4.5, 4.47, wide, [wide]) is car
+    assert tracker._found_again(new, 4.5, 4.47, wide) is car
+    assert tracker._found_again(new, 4.5, 4.47, None) is car
     car.updated = 4.5
-    assert tracker._found_again(new, 4.5, 4.47, wide, [wide]) is wide
-    assert tracker._found_again(new, 4.5, 4.47, None, [wide]) is None
-    tracker.tracks = [wide, car, new]
-    assert tracker._found_again(new, 4.5, 4.47, wide, []) is wide
-    assert tracker._found_again(new, 4.5, 4.47, None, []) is None  # wide coasts since 2.9 s
+    assert tracker._found_again(new, 4.5, 4.47, wide) is wide
+    assert tracker._found_again(new, 4.5, 4.47, None) is None  # wide coasts since 2.9 s
     wide.hits = config.min_hits - 1
-    assert tracker._found_again(new, 4.5, 4.47, wide, []) is None
+    assert tracker._found_again(new, 4.5, 4.47, wide) is None
 
 
 @pytest.mark.parametrize('occluders', [False, True])

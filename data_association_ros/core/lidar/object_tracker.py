@@ -47,8 +47,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
 9. hand-over: a track started at t within the same-object gate (chi-square on x, y, vx, vy,
    both covariances) of an established (min_hits) track not updated at t, either the coasting
-   one that took its cluster in the coarse association but could not correct it (also when it
-   was dropped by age at t) or one updated at the previous scan, is that object found again: it
+   one that took its cluster in the coarse association but could not correct it or one
+   updated at the previous scan, is that object found again: it
    takes the id and speed (handed_velocity) of the nearest (least d2) such track, which is
    dropped;
 10. continuation: a track confirmed at t (its min_hits-th update) within the same-object gate of
@@ -107,8 +107,9 @@ object turns makes a beam along a face look as if it passed through the rectangl
 EXTENT_SWING = np.deg2rad(20.0)
 """The extent is fitted anew (shape.fit_at, completed by the priors) once the corrections have
 turned the heading by more than this since it was last fitted: it was grown and cut back along
-axes now known to be wrong (a width cut to 0.07 m under a start heading 128 deg off stays so
-when only the other face is ever seen)."""
+axes now known to be wrong (a width cut to 0.06 m under a start heading 131 deg off, 49 deg
+off the car's axis, stays so when only the other face is ever seen; a turning car whose yaw
+rate lags may be fitted anew too, which costs nothing once it is seen)."""
 HIDDEN_SHARE = 0.9
 """A coasting track is hidden (kept up to max_hidden_age) when this share of the beams towards
 its predicted rectangle return before reaching it."""
@@ -141,7 +142,8 @@ class ObjectTrack:
     """A tracked rigid object: id, filter (state [x, y, yaw, vx, vy, yaw_rate] of the rectangle's
     centre), rectangle length and width [m], last cluster centroid in the object frame (anchor),
     update count, time [s] and posterior (x, y, yaw) of the last update, and this scan's matched
-    scan points; continues: it took over an older track's id."""
+    scan points; continues: it took over an older track's id; swung [rad]: the net heading
+    change by the corrections since the rectangle was last fitted (EXTENT_SWING)."""
 
     id: int
     filter: KalmanFilter | InteractingModels
@@ -283,12 +285,10 @@ class LidarObjectTracker:
         self.tracks = [t for t in self.tracks if max(t.length, t.width) <= largest
                        and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
         taking = {id(t) for t in lost.values()}  # coasting, took a cluster it cannot correct
-        aged = [t for t in self.tracks if not (
-                    time - t.updated <= config.max_age
-                    or (time - t.updated <= config.max_hidden_age
-                        and t.hits >= config.min_hits
-                        and (id(t) in taking or self._hidden(t))))]
-        self.tracks = [t for t in self.tracks if all(t is not a for a in aged)]
+        self.tracks = [t for t in self.tracks if time - t.updated <= config.max_age
+                       or (time - t.updated <= config.max_hidden_age
+                           and t.hits >= config.min_hits
+                           and (id(t) in taking or self._hidden(t)))]
         self._continue_confirmed(time)
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
@@ -296,15 +296,13 @@ class LidarObjectTracker:
                     and not occluded[cluster].all():  # maybe background between two shadows
                 started = self._start(points[labels == cluster], occluded[cluster], time)
                 old = None if started is None else \
-                    self._found_again(started, time, before, lost.get(cluster), aged)
+                    self._found_again(started, time, before, lost.get(cluster))
                 if old is not None:
                     self._hand_over(old, started)
-                    aged = [t for t in aged if t is not old]
         return self.reported()
 
     def _found_again(self, new: ObjectTrack, time: float, before: Optional[float],
-                     taken: Optional[ObjectTrack], aged: list[ObjectTrack]
-                     ) -> Optional[ObjectTrack]:
+                     taken: Optional[ObjectTrack]) -> Optional[ObjectTrack]:
         """Of the confirmed tracks not updated at `time` that either took new's cluster in the
         coarse association but could not correct it (`taken`, coasting) or were updated at the
         previous scan `before`, the nearest (least d2) within _same_object's gate of the track
@@ -313,12 +311,9 @@ class LidarObjectTracker:
         1.6 s, with the widest gate, took a car's cluster and handed the car's new track its id,
         while the car's own track, updated the scan before, lay 0.1 m away); a track coasting
         longer that did not take the cluster does not (race seeds 21 and 216: the opponents
-        swapped ids).  `aged`: the tracks dropped by age at `time`; of them only `taken` can be
-        found again (an F1Tenth car back from behind a 270-deg LiDAR: its coasting track took
-        the first returns, could not correct itself with them and was dropped at that scan)."""
+        swapped ids)."""
         return self._nearest_same_object(new, [
-            t for t in self.tracks + [t for t in aged if t is taken]
-            if t.updated < time and t.hits >= self.config.min_hits
+            t for t in self.tracks if t.updated < time and t.hits >= self.config.min_hits
             and (t is taken or (before is not None and t.updated >= before))])
 
     def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
