@@ -33,6 +33,30 @@ def test_one_model_is_the_kalman_filter():
     assert imm.probabilities.tolist() == [1.0]
 
 
+def test_correct_is_each_models_correct_and_keeps_the_probabilities():
+    """A pseudo-measurement (innovation and H from each model's own state) corrects every
+    model as KalmanFilter.correct does, with the fixed rows of the gains zeroed, and leaves
+    the model probabilities as they were."""
+    imm = InteractingModels(X0, P0, [0.3, 0.7], switch_time=2.0)
+    imm.h, imm.r = H, R
+    imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)
+    imm.update([0.8])
+    models = [KalmanFilter(m.x, m.p, F, Q_CALM, H, R) for m in imm.models]
+    probabilities = imm.probabilities.copy()
+
+    def measure(x):
+        return np.array([1.5 - x[1] ** 2]), np.array([[0.0, 2 * x[1]]])
+
+    imm.correct(measure, np.array([[0.2]]), fixed=(0,))
+    for model, alone in zip(imm.models, models):
+        alone.correct(*measure(alone.x), np.array([[0.2]]), fixed=(0,))
+        np.testing.assert_allclose(model.x, alone.x, rtol=1e-12)
+        np.testing.assert_allclose(model.p, alone.p, rtol=1e-12)
+    np.testing.assert_array_equal(imm.probabilities, probabilities)
+    mixture = probabilities @ np.array([m.x for m in models])
+    np.testing.assert_allclose(imm.x, mixture, rtol=1e-12)
+
+
 def test_one_cycle_by_hand():
     """Mixing, prediction, update and probabilities of two models written out here."""
     imm = InteractingModels(X0, P0, [0.3, 0.7], switch_time=2.0)

@@ -45,6 +45,16 @@ def turning_prediction(state: np.ndarray, dt: float) -> tuple[np.ndarray, np.nda
     return predicted, f
 
 
+def lateral_velocity(state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(innovation (1,), Jacobian H (1, 6)) of the pseudo-measurement 0 of the velocity across
+    the heading (no slip), h(x) = -sin(yaw) vx + cos(yaw) vy [m/s]: innovation -h(x),
+    H = [0, 0, -(cos(yaw) vx + sin(yaw) vy), -sin(yaw), cos(yaw), 0]."""
+    yaw, vx, vy = state[2], state[3], state[4]
+    c, s = np.cos(yaw), np.sin(yaw)
+    return (np.array([s * vx - c * vy]),
+            np.array([[0.0, 0.0, -(c * vx + s * vy), -s, c, 0.0]]))
+
+
 def process_noise(dt: float, accel_sigma: float, yaw_accel_sigma: float) -> np.ndarray:
     """Q (6, 6) of white (angular) acceleration with spectral densities accel_sigma^2
     [m^2/s^3] and yaw_accel_sigma^2 [rad^2/s^3]: per (position, velocity) pair

@@ -25,7 +25,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
    turned round, or fitted anew along the velocity (shape.fit_at); a track is reported only once
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
-   SETTLE_TIME unless its velocity is voting to turn it); the rectangle grows or moves to
+   SETTLE_TIME unless its velocity is voting to turn it); a settled track's velocity is then
+   corrected towards its heading (no_slip, slip_sigma; heading and yaw rate kept); the
+   rectangle grows or moves to
    contain the matched points (shape.contain), and is cut back where beams pass through it
    (free_space.carve: a prior longer than the object); once the corrections have turned the
    heading by more than EXTENT_SWING since the rectangle was fitted, it is fitted anew along
@@ -81,8 +83,8 @@ from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigi
 from .clustering import cluster_consecutive, cluster_ends, on_face
 from .fine import boundary_covariance, match
 from .free_space import FACE_POINTS, beams, blocked_share, carve, face_end_limit, near
-from .measurement import (fictitious_measurement, measurement_covariance, process_noise,
-                          turning_prediction)
+from .measurement import (fictitious_measurement, lateral_velocity, measurement_covariance,
+                          process_noise, turning_prediction)
 from .parameters import TrackerConfig
 from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
 
@@ -90,6 +92,8 @@ INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
 MOTION = np.array([0, 1, 3, 4])
 """Indices of x, y, vx, vy in the state (the same-object gate's components)."""
+HEADING = (2, 5)
+"""Indices of yaw and yaw_rate in the state (not corrected by no_slip)."""
 MAX_COORDINATE = 1e5
 """Points farther than this [m] on either axis count as no return."""
 FLIP_RATE = 0.25
@@ -557,6 +561,8 @@ class LidarObjectTracker:
             x[:3] = [centre[0], centre[1], yaw]
             track.length, track.width, track.swung = length, width, 0.0
         x[2] = wrap_angle(x[2])
+        if track.settled and not turn and config.slip_sigma > 0:
+            no_slip(track.filter, config.slip_sigma)
         self._grow(track, track.matched, scan, compensation,
                    self._face_ends(points, labels, clusters, ends))
         return True
@@ -711,6 +717,18 @@ def predict(motion: KalmanFilter | InteractingModels, dt: float, config: Tracker
     motion.q = process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)
     motion.predict()
     motion.x = predicted
+
+
+def no_slip(motion: KalmanFilter | InteractingModels, sigma: float) -> None:
+    """Correct with the pseudo-measurement that the velocity has no component across the
+    heading (measurement.lateral_velocity: an object drives along its length axis), std sigma
+    [m/s], heading and yaw rate taken as known (Schmidt's consider update: the rectangle fits
+    tell the heading, the constraint turns the velocity to it)."""
+    r = np.array([[sigma ** 2]])
+    if isinstance(motion, InteractingModels):
+        motion.correct(lateral_velocity, r, fixed=HEADING)
+    else:
+        motion.correct(*lateral_velocity(motion.x), r, fixed=HEADING)
 
 
 def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:

@@ -109,6 +109,11 @@ PARAMETERS = (
            'one by an IMM (core/tracking/interacting_models.py; tracks started from then on); '
            '0: one model (the f1tenth preset: 0.5)', low_open=False),
     _float('model_switch_time', 2.0, 'IMM: mean time an object keeps to one motion model [s]'),
+    _float('slip_sigma', 0.0, 'a settled track is corrected with the pseudo-measurement that '
+           'its velocity has no component across its heading (a car does not drive sideways), '
+           'with this std [m/s]; heading and yaw rate are not corrected by it, so a heading off '
+           'turns the velocity off with it; 0: off (docs/lidar.md "Tenth round": 0.3 tried)',
+           low_open=False),
     ParameterSpec('velocity_measurement', False, "the fictitious measurement includes the "
                   "velocity and yaw rate (the seed's); false: only x, y, yaw (the filter "
                   'differentiates)', kind=bool),
@@ -158,6 +163,7 @@ class TrackerConfig:
     yaw_accel_sigma: float = 4.0
     calm_yaw_accel_sigma: float = 0.0
     model_switch_time: float = 2.0
+    slip_sigma: float = 0.0
     velocity_measurement: bool = False
     position_sigma: float = 0.02
     yaw_sigma: float = 0.01

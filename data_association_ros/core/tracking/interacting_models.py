@@ -118,6 +118,16 @@ class InteractingModels:
         self.probabilities = c / c.sum()
         self._combine()
 
+    def correct(self, measure: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+                r: np.ndarray, fixed: tuple[int, ...] = ()) -> None:
+        """Every model's KalmanFilter.correct with (innovation (m,), H (m, n)) = measure(its
+        x) and R (m, m), the rows `fixed` of the gains zeroed; the probabilities are kept (a
+        constraint such as a pseudo-measurement, not evidence for one model)."""
+        self._sync()
+        for model in self.models:
+            model.correct(*measure(model.x), r, fixed)
+        self._combine()
+
     def innovation_covariance(self) -> np.ndarray:
         """S = H P H^T + R (m, m) of the mixture."""
         return self.h @ self.p @ self.h.T + self.r
