@@ -12,7 +12,8 @@ from data_association_ros.bag.lidar_seeds import configuration
 from data_association_ros.core.lidar import LidarObjectTracker, TrackerConfig
 from data_association_ros.core.lidar.measurement import lateral_velocity
 from data_association_ros.core.lidar.object_tracker import (SETTLE_TIME, SLOW_VOTE, ObjectTrack,
-                                                             heading_turn, no_slip)
+                                                             extent_covariance, heading_turn,
+                                                             no_slip)
 from data_association_ros.core.tracking.kalman import KalmanFilter
 from data_association_ros.pipelines.lidar_tracking import PoseHistory, to_frame
 
@@ -427,6 +428,37 @@ def test_a_new_track_is_found_again_as_the_nearest_gated_track():
     assert tracker._found_again(new, 4.5, 4.47, None) is None  # wide coasts since 2.9 s
     wide.hits = config.min_hits - 1
     assert tracker._found_again(new, 4.5, 4.47, wide) is None
+
+
+def test_extent_covariance_by_hand():
+    """R diag((L/2)^2, (W/2)^2) R^T for L = 4, W = 2: diag(4, 1) along x, diag(1, 4) along y,
+    [[2.5, 1.5], [1.5, 2.5]] at 45 deg."""
+    np.testing.assert_allclose(extent_covariance(0.0, 4.0, 2.0), np.diag([4.0, 1.0]))
+    np.testing.assert_allclose(extent_covariance(np.pi / 2, 4.0, 2.0), np.diag([1.0, 4.0]),
+                               atol=1e-12)
+    np.testing.assert_allclose(extent_covariance(np.pi / 4, 4.0, 2.0),
+                               [[2.5, 1.5], [1.5, 2.5]])
+
+
+def test_the_far_end_of_a_car_goes_to_its_track_not_to_a_long_coasting_one():
+    """A car (4.5 x 1.8 m at (10, 0), yaw 0, position variance 1 m^2) last seen at its near end
+    (anchor (-1.5, 0): (8.5, 0)); now its far end shows, centroid (11.5, 0), 3 m on.  A track
+    coasting for long (position variance 400 m^2) lies 30 m from it.  Without the extent the
+    car's d2 is 9 / (1 + 0.5^2 + 0.05^2) = 7.19 (in the 99 % gate, 9.21) and the coasting
+    track's 900 / 400.25 = 2.25: the coasting track took the cluster (car_static seed 203
+    object 1: its id switched so).  With it the car's d2 is 9 / (1.2525 + 2.25^2) = 1.43."""
+    car = ObjectTrack(1, KalmanFilter(np.array([10.0, 0, 0, 0, 0, 0]),
+                                      np.diag([1.0, 1.0, 0.01, 1.0, 1.0, 0.1]),
+                                      *[np.eye(6)] * 4), 4.5, 1.8, np.array([-1.5, 0.0]),
+                      hits=10, updated=0.9)
+    coasting = _track(2, [11.5, 30.0, 0, 0, 0, 0], [400.0, 400.0, 0.1, 100.0, 100.0, 1.0], 10,
+                      0.0, length=4.5, width=1.8)
+    tracker = LidarObjectTracker(configuration('car_static', TrackerConfig()))
+    tracker.tracks = [car, coasting]
+    points = np.array([[11.5, -0.5], [11.5, 0.5]])
+    assert tracker._coarse(points, np.array([0, 0]), 1) == {0: [0]}
+    tracker.tracks = [coasting, car]  # the order does not decide it
+    assert tracker._coarse(points, np.array([0, 0]), 1) == {1: [0]}
 
 
 @pytest.mark.parametrize('occluders', [False, True])

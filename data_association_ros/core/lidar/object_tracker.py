@@ -11,7 +11,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    agile, mixed by an IMM: tracking.interacting_models);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
    centroid in the object frame, moved with the predicted pose; covariance A P A^T +
-   coarse_sigma^2 I) by the registry associator `coarse`; a cluster left over whose centroid lies
+   coarse_sigma^2 I + extent_covariance: the returns of another part of the object may show)
+   by the registry associator `coarse`; a cluster left over whose centroid lies
    in a track's predicted rectangle (grown by cluster_gap) joins that track (an object split by
    an occluder is one object);
 4. fine: match (at most max_match_points of) the track's scan points with the predicted boundary
@@ -431,7 +432,8 @@ class LidarObjectTracker:
             a = np.hstack([np.eye(2), (J @ rotation(x[2]) @ track.anchor)[:, None]])
             means.append(track.anchor_world())
             covariances.append(a @ track.filter.p[:3, :3] @ a.T
-                               + config.coarse_sigma ** 2 * np.eye(2))
+                               + config.coarse_sigma ** 2 * np.eye(2)
+                               + extent_covariance(x[2], track.length, track.width))
         landmarks = Landmarks(np.arange(len(self.tracks)), np.array(means), np.array(covariances))
         observations = Observations(centroids, np.broadcast_to(
             config.point_sigma ** 2 * np.eye(2), (count, 2, 2)), 'point_map')
@@ -717,6 +719,16 @@ def predict(motion: KalmanFilter | InteractingModels, dt: float, config: Tracker
     motion.q = process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)
     motion.predict()
     motion.x = predicted
+
+
+def extent_covariance(yaw: float, length: float, width: float) -> np.ndarray:
+    """(2, 2) R(yaw) diag((length/2)^2, (width/2)^2) R(yaw)^T [m^2]: the spread of where a
+    cluster's centroid can lie about the track's anchor (the centroid of the returns last seen)
+    when another part of the rectangle shows (the far end of a car, 4.5 m along it, seen after
+    its near end: without it that cluster leaves the gate while a coasting track whose position
+    std grew to metres takes it)."""
+    r = rotation(yaw)
+    return r @ np.diag([(length / 2) ** 2, (width / 2) ** 2]) @ r.T
 
 
 def no_slip(motion: KalmanFilter | InteractingModels, sigma: float) -> None:
