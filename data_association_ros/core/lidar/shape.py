@@ -114,8 +114,13 @@ def fit_rectangle(points: np.ndarray, prior_length: float, prior_width: float,
 
 
 FACE_POINTS = 3
+FACE_REACH = 0.2
 """fit_at: the face a hidden cluster end lies on runs along the axis of its offset from the
-return this many places in (a corner nearer than that leaves the axis to the longer leg)."""
+first return at least FACE_POINTS places and FACE_REACH x prior_width [m] in (a corner nearer
+than that leaves the axis to the longer leg).  The reach keeps the point noise from deciding:
+an F1Tenth car 1.6 m away has returns 7 mm apart, three of them 2 cm along a face and as much
+across it by noise (f1tenth_static seed 505 object 2: its hidden end was completed on the
+wrong side, 0.17 m off for 20 scans)."""
 
 
 def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: float,
@@ -134,8 +139,10 @@ def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: flo
     hidden_end, hidden_axis = None, None
     if occluded is not None and np.count_nonzero(occluded) == 1:
         hidden_end = body[0] if occluded[0] else body[-1]
-        inner = body[min(FACE_POINTS, len(body) - 1)] if occluded[0] else \
-            body[max(len(body) - 1 - FACE_POINTS, 0)]
+        inward = body if occluded[0] else body[::-1]
+        reached = np.hypot(*(inward - hidden_end).T) >= FACE_REACH * prior_width
+        inner = inward[min(max(FACE_POINTS, int(np.argmax(reached)) if reached.any()
+                               else len(body) - 1), len(body) - 1)]
         hidden_axis = int(np.argmax(np.abs(hidden_end - inner)))  # the face it ends
     box = []
     for k, extent in ((0, prior_length), (1, prior_width)):
