@@ -47,7 +47,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    a few returns near its prediction, while the beams beside them pass through the rest);
 8. two-point start: a track never corrected whose one cluster it cannot match (an object that
    moved farther than the fine association reaches from a start at rest) is fitted anew to the
-   cluster with the velocity of its two fitted centres (start_velocity, chi-square gated);
+   cluster with the velocity of its two fitted centres (start_velocity, chi-square gated),
+   weighed against the start at rest by the fits' noise over the time between them
+   (fused_start_velocity);
 9. hand-over: a track started at t within the same-object gate (chi-square on x, y, vx, vy,
    both covariances) of an established (min_hits) track not updated at t, either the coasting
    one that took its cluster in the coarse association but could not correct it or one
@@ -91,6 +93,9 @@ from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_vis
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
+FIT_SIGMA_PER_LENGTH = INITIAL_SIGMAS[0] / 4.5
+"""Std of a fitted rectangle's centre per metre of prior length (0.3 m for a 4.5 m car, 37 mm
+for a 0.55 m F1Tenth car): the two-point start's noise (fused_start_velocity)."""
 MOTION = np.array([0, 1, 3, 4])
 """Indices of x, y, vx, vy in the state (the same-object gate's components)."""
 HEADING = (2, 5)
@@ -673,8 +678,9 @@ class LidarObjectTracker:
                  time: float) -> None:
         """Two-point initialisation of a track never corrected (its start at rest could not
         be matched to the moved object): fitted anew to `cluster`, velocity = the change of
-        the fitted centre since the last fit / the time since (start_velocity), the initial
-        covariance.  Left as it is when the fit is background or the change is outside the
+        the fitted centre since the last fit / the time since (start_velocity), fused with the
+        start at rest (fused_start_velocity), the initial covariance with the fused velocity
+        variance.  Left as it is when the fit is background or the change is outside the
         gate."""
         fit = self._fit(cluster, occluded)
         if fit is None:
@@ -684,8 +690,12 @@ class LidarObjectTracker:
                                   self.config.gate_probability)
         if velocity is None:
             return
+        variances = np.square(INITIAL_SIGMAS)
+        velocity, variances[3:5] = fused_start_velocity(
+            velocity, time - track.updated, FIT_SIGMA_PER_LENGTH * max(self.config.priors()),
+            INITIAL_SIGMAS[3])
         track.filter.x = np.array([centre[0], centre[1], yaw, velocity[0], velocity[1], 0.0])
-        track.filter.p = np.diag(np.square(INITIAL_SIGMAS))
+        track.filter.p = np.diag(variances)
         track.length, track.width, track.anchor = length, width, anchor
         track.updated, track.last = time, track.filter.x[:3].copy()
         track.votes = 0
@@ -761,6 +771,19 @@ def start_velocity(previous: np.ndarray, centre: np.ndarray, dt: float,
     if dt <= 0 or change @ change > chi2_threshold(gate_probability, 2) * variance:
         return None
     return change / dt
+
+
+def fused_start_velocity(velocity: np.ndarray, dt: float, fit_sigma: float,
+                         prior_sigma: float) -> tuple[np.ndarray, float]:
+    """(velocity (2,) [m/s], its variance per axis [m^2/s^2]): the two-point velocity, whose
+    noise is that of two fits fit_sigma [m] apart over dt [s], 2 fit_sigma^2 / dt^2, fused with
+    the start at rest, 0 +- prior_sigma: gain g = prior_sigma^2 / (prior_sigma^2 + 2
+    fit_sigma^2 / dt^2), velocity g v, variance (1 - g) prior_sigma^2.  Two fits of a car 25 ms
+    apart tell its velocity to 17 m/s: a cluster growing as the car comes out from behind
+    another moved the fitted centre 1.3 m, read as 53 m/s (car_static seed 112 object 4)."""
+    prior = prior_sigma ** 2
+    gain = prior / (prior + 2 * fit_sigma ** 2 / dt ** 2)
+    return gain * np.asarray(velocity, float), (1 - gain) * prior
 
 
 def heading_turn(state: np.ndarray, velocity_covariance: np.ndarray,
