@@ -88,12 +88,12 @@ from .fine import boundary_covariance, match
 from .free_space import FACE_POINTS, beams, blocked_share, carve, face_end_limit, near
 from .measurement import (fictitious_measurement, lateral_velocity, measurement_covariance,
                           process_noise, turning_prediction)
-from .parameters import TrackerConfig
+from .parameters import SIZE_CLASSES, TrackerConfig
 from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
-FIT_SIGMA_PER_LENGTH = INITIAL_SIGMAS[0] / 4.5
+FIT_SIGMA_PER_LENGTH = INITIAL_SIGMAS[0] / SIZE_CLASSES['car'][0]
 """Std of a fitted rectangle's centre per metre of prior length (0.3 m for a 4.5 m car, 37 mm
 for a 0.55 m F1Tenth car): the two-point start's noise (fused_start_velocity)."""
 MOTION = np.array([0, 1, 3, 4])
