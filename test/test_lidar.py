@@ -149,8 +149,8 @@ from data_association_ros.core.lidar.alignment import (EdgePoint,  # noqa: E402
 from data_association_ros.core.lidar.fine import boundary_covariance, match  # noqa: E402
 from data_association_ros.core.lidar.measurement import (measurement_covariance,  # noqa: E402
                                                          process_noise)
-from data_association_ros.core.lidar.shape import (contain, corners, fit_at, fit_rectangle,  # noqa: E402
-                                                   sample_visible, visible_faces)
+from data_association_ros.core.lidar.shape import (contain, corners, fit_at,  # noqa: E402
+                                                   fit_rectangle, sample_visible, visible_faces)
 
 
 def polar_points(ranges, step=0.01):

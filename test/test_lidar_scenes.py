@@ -340,10 +340,11 @@ def test_handed_velocity_keeps_the_speed_along_the_length_axis():
     np.testing.assert_allclose(handed_velocity(np.zeros(2), 1.0), [0.0, 0.0])
 
 
-def _track(track_id, state, variances, hits, updated, born=0.0, length=0.55, width=0.3):
+def _track(track_id, state, variances, hits, updated, born=0.0, length=0.55, width=0.3,
+           anchor=(0.0, 0.0)):
     motion = KalmanFilter(np.asarray(state, float), np.diag(np.asarray(variances, float)),
                           np.eye(6), np.eye(6), np.eye(6), np.eye(6))
-    return ObjectTrack(track_id, motion, length, width, np.zeros(2), hits=hits,
+    return ObjectTrack(track_id, motion, length, width, np.array(anchor, float), hits=hits,
                        updated=updated, born=born)
 
 
@@ -480,10 +481,8 @@ def test_the_far_end_of_a_car_goes_to_its_track_not_to_a_long_coasting_one():
     car's d2 is 9 / (1 + 0.5^2 + 0.05^2) = 7.19 (in the 99 % gate, 9.21) and the coasting
     track's 900 / 400.25 = 2.25: the coasting track took the cluster (car_static seed 203
     object 1: its id switched so).  With it the car's d2 is 9 / (1.2525 + 2.25^2) = 1.43."""
-    car = ObjectTrack(1, KalmanFilter(np.array([10.0, 0, 0, 0, 0, 0]),
-                                      np.diag([1.0, 1.0, 0.01, 1.0, 1.0, 0.1]),
-                                      *[np.eye(6)] * 4), 4.5, 1.8, np.array([-1.5, 0.0]),
-                      hits=10, updated=0.9)
+    car = _track(1, [10.0, 0, 0, 0, 0, 0], [1.0, 1.0, 0.01, 1.0, 1.0, 0.1], 10, 0.9,
+                 length=4.5, width=1.8, anchor=(-1.5, 0.0))
     coasting = _track(2, [11.5, 30.0, 0, 0, 0, 0], [400.0, 400.0, 0.1, 100.0, 100.0, 1.0], 10,
                       0.0, length=4.5, width=1.8)
     tracker = LidarObjectTracker(configuration('car_static', TrackerConfig()))

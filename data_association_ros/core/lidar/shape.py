@@ -140,9 +140,9 @@ def fit_at(points: np.ndarray, yaw: float, prior_length: float, prior_width: flo
     if occluded is not None and np.count_nonzero(occluded) == 1:
         hidden_end = body[0] if occluded[0] else body[-1]
         inward = body if occluded[0] else body[::-1]
-        reached = np.hypot(*(inward - hidden_end).T) >= FACE_REACH * prior_width
-        inner = inward[min(max(FACE_POINTS, int(np.argmax(reached)) if reached.any()
-                               else len(body) - 1), len(body) - 1)]
+        reached = np.flatnonzero(np.hypot(*(inward - hidden_end).T) >= FACE_REACH * prior_width)
+        first = reached[0] if reached.size else len(body) - 1
+        inner = inward[min(max(FACE_POINTS, first), len(body) - 1)]
         hidden_axis = int(np.argmax(np.abs(hidden_end - inner)))  # the face it ends
     box = []
     for k, extent in ((0, prior_length), (1, prior_width)):
