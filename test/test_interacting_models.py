@@ -126,20 +126,27 @@ def test_owner_edits_move_every_model():
 @given(st.integers(0, 10 ** 6))
 def test_the_model_that_fits_wins(seed):
     """Measurements of a constant velocity (no acceleration at all): the calm model's
-    likelihoods are higher, so after 40 updates it holds most of the probability; a velocity
-    that jumps every 10 steps hands it to the agile one."""
+    likelihoods are higher, so over updates 10-39 it holds most of the probability on average
+    (at one given update the noise can favour the agile one: after update 39, 8 of 3000 seeds
+    did, so this test failed now and then); a velocity that jumps every 10 steps hands it to
+    the agile one at the jump (update 39: 0 of 3000 seeds kept it with the calm one)."""
     rng = np.random.default_rng(seed)
-    for jumps, calm_wins in ((False, True), (True, False)):
+    for jumps in (False, True):
         imm = InteractingModels(X0, P0, [0.5, 0.5], switch_time=5.0)
         imm.h, imm.r = H, np.array([[0.01]])
         position, velocity = 0.0, 1.0
+        calm = []
         for k in range(40):
             if jumps and k % 10 == 9:
                 velocity = -velocity * 4
             position += velocity * 0.5
             imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)
             imm.update([position + rng.normal(0, 0.1)])
-        assert (imm.probabilities[0] > 0.5) == calm_wins, imm.probabilities
+            calm.append(imm.probabilities[0])
+        if jumps:
+            assert calm[-1] < 0.5, calm
+        else:
+            assert np.mean(calm[10:]) > 0.5, calm
 
 
 def test_refuses_bad_settings():

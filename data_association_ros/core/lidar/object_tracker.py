@@ -24,7 +24,10 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    as the seed), unless it fails the filter's chi-square gate;
 6. the velocity settles the heading (heading_turn): when it points backwards (pi) or across
    (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
-   turned round, or fitted anew along the velocity (shape.fit_at); a track is reported only once
+   turned round, or fitted anew along the velocity (shape.fit_at); before the heading is
+   settled, the cluster's spread across the heading vetoes a turn across that would make the
+   object wider than its size class allows, and turns the heading when the cluster already
+   spreads across it that wide (plausible_turn); a track is reported only once
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
    SETTLE_TIME unless its velocity is voting to turn it); a settled track's velocity is then
    corrected towards its heading (no_slip, slip_sigma; heading and yaw rate kept); the
