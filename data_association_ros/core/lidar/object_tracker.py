@@ -436,8 +436,7 @@ class LidarObjectTracker:
                                     <= [other.length / 2, other.width / 2])]
                 if inside:
                     young = inside[0]
-                    if track.hits >= self.config.min_hits and \
-                            young.hits < self.config.min_hits and not young.continues:
+                    if track.hits >= self.config.min_hits and not self._established(young):
                         young.continue_from(track)
                     continue
             keep.append(track)
@@ -727,8 +726,9 @@ class LidarObjectTracker:
 
 
 def across_spread(points: np.ndarray, yaw: float) -> float:
-    """The points' (K, 2) extent [m] across the heading yaw: ptp of points . (-sin yaw, cos yaw)."""
-    return float(np.ptp(points @ np.array([-np.sin(yaw), np.cos(yaw)])))
+    """The points' (K, 2) extent [m] across the heading yaw: ptp of points . (-sin yaw, cos yaw),
+    the left normal (rotation(yaw)'s second column)."""
+    return float(np.ptp(points @ rotation(yaw)[:, 1]))
 
 
 def plausible_turn(points: np.ndarray, yaw: float, velocity: np.ndarray, turn: float,
@@ -752,7 +752,7 @@ def plausible_turn(points: np.ndarray, yaw: float, velocity: np.ndarray, turn: f
     if across_spread(points, yaw) <= (prior_length + prior_width) / 2 or \
             across_spread(points, yaw + np.pi / 2) > limit:
         return turn
-    return float(np.copysign(np.pi / 2, np.array([-np.sin(yaw), np.cos(yaw)]) @ velocity))
+    return float(np.copysign(np.pi / 2, rotation(yaw)[:, 1] @ velocity))
 
 
 def turning(track: ObjectTrack) -> bool:
