@@ -125,8 +125,9 @@ PARAMETERS = (
            low_open=False),
     _float('max_hidden_age', 3.0, 'a confirmed track hidden behind something nearer (at least '
            '90 % of the beams towards its predicted rectangle return before it, or none points '
-           'at it) is kept up to this long without update instead of max_age [s] (at least '
-           'max_age counts)', low_open=False),
+           'at it) or predicted too vaguely to be looked for (position std above its length) is '
+           'kept up to this long without update instead of max_age [s] (at least max_age '
+           'counts)', low_open=False),
     _int('min_hits', 3, 'a track is reported once updated on this many scans', 1, 100000),
 )
 BY_NAME = {p.name: p for p in PARAMETERS}
