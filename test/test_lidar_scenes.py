@@ -9,9 +9,8 @@ from data_association_ros.bag.lidar_motion import Pieces, Stadium
 from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, KINDS, Scene,
                                                          SceneObject, race_scene, random_scene)
 from data_association_ros.bag.lidar_seeds import configuration
-from data_association_ros.core.lidar import LidarObjectTracker, TrackerConfig
+from data_association_ros.core.lidar import LidarObjectTracker, TrackerConfig, object_tracker
 from data_association_ros.core.lidar.measurement import lateral_velocity
-from data_association_ros.core.lidar import object_tracker
 from data_association_ros.core.lidar.object_tracker import (SETTLE_TIME, SLOW_VOTE, ObjectTrack,
                                                              FIT_SIGMA_PER_LENGTH, across_spread,
                                                              extent_covariance,
@@ -607,8 +606,8 @@ def test_an_f1tenth_car_found_again_keeps_its_id_and_speed():
 def test_vague_by_hand():
     """Position covariance [[0.2, 0.1], [0.1, 0.2]]: eigenvalues 0.3 and 0.1, largest std
     sqrt(0.3) = 0.548 m.  Vague for a 0.5 m x 0.3 m track, not for 0.55 m x 0.3 m, nor for a
-    0.3 m x 0.55 m one (max of length and width); the off-diagonal term counts (the diagonal
-    alone gives std 0.447 m)."""
+    0.3 m x 0.55 m one, vague again for 0.3 m x 0.45 m (max of length and width); the
+    off-diagonal term counts (the diagonal alone gives std 0.447 m)."""
     track = _track(1, np.zeros(6), np.ones(6), hits=5, updated=0.0, length=0.5, width=0.3)
     track.filter.p[:2, :2] = [[0.2, 0.1], [0.1, 0.2]]
     assert vague(track)
