@@ -88,6 +88,24 @@ def test_face_tolerance_joins_only_a_straight_face_at_an_even_spacing():
                                   np.arange(8))   # without a tolerance: as before
 
 
+def test_face_tolerance_joins_no_step_longer_than_longest_step():
+    """race seed 404, t = 5.425 s, by hand: the side of an F1Tenth car (returns 1.5 cm apart),
+    then two returns 3.2 m apart that happen to continue its line (another car, a wall): one
+    cluster of 12 without longest_step; with the F1Tenth bound (max_size_ratio 2 x 0.55 m) the
+    car's 10 returns alone, the two others left out (min_points 3)."""
+    car = np.column_stack([6.2 + 0.015 * np.arange(10)[::-1], np.full(10, 3.46)])
+    step = np.array([-3.12, 0.79])   # 3.22 m; the next return as far on along the same line
+    points = np.vstack([car, car[-1] + step, car[-1] + 2 * step])
+    assert cluster_consecutive(points, gap=0.3, min_points=3, face_tolerance=0.15).tolist() \
+        == [0] * 12
+    np.testing.assert_array_equal(
+        cluster_consecutive(points, gap=0.3, min_points=3, face_tolerance=0.15,
+                            longest_step=1.1), [0] * 10 + [-1, -1])
+    np.testing.assert_array_equal(   # a bound above the step changes nothing
+        cluster_consecutive(points, gap=0.3, min_points=3, face_tolerance=0.15,
+                            longest_step=3.3), [0] * 12)
+
+
 def scan_points(scan):
     """LaserScan -> (K, 2) points in the laser frame (inf ranges stay inf)."""
     ranges = np.asarray(scan.ranges, dtype=float)

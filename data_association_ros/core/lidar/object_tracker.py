@@ -3,7 +3,8 @@
 
 Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 1. cluster consecutive points (clustering.cluster_consecutive; a face seen at a grazing angle,
-   its returns farther apart than cluster_gap, stays one cluster) and flag each cluster end that
+   its returns farther apart than cluster_gap, stays one cluster, unless two of them are farther
+   apart than max_size_ratio x the prior length) and flag each cluster end that
    is an object edge or occluded (clustering.cluster_ends; an end next to no return whose face
    would pass the sensor's range limit at the next beam is neither);
 2. predict every track to t, its velocity turning with its yaw rate (measurement.
@@ -274,7 +275,8 @@ class LidarObjectTracker:
         self._rays = beams(points, self._origins, directions, self._margin, max_range)
         self._range_known = max_range is not None and bool(np.isfinite(max_range))
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
-                                     FACE_SIGMAS * config.point_sigma)
+                                     FACE_SIGMAS * config.point_sigma,
+                                     config.max_size_ratio * max(config.priors()))
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
                                              max_range)
         self._occluded = occluded

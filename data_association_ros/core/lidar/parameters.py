@@ -99,7 +99,8 @@ PARAMETERS = (
     _float('prior_width', 1.8, 'size_class custom: assumed width of an object whose width is not '
            'seen [m]'),
     _float('max_size_ratio', 4.0, 'a cluster or track longer than this times the prior length '
-           'is background (walls), not tracked'),
+           'is background (walls), not tracked; no two returns farther apart are joined as one '
+           'face'),
     _float('ransac_threshold', 0.1, 'transform ransac: inlier distance [m]'),
     _float('accel_sigma', 4.0, 'process noise: white acceleration [m/s^2/sqrt(Hz)]'),
     _float('yaw_accel_sigma', 4.0, 'process noise: white angular acceleration '
