@@ -621,6 +621,22 @@ def test_vague_by_hand():
     assert not vague(track)
 
 
+def test_a_wall_piece_near_a_coasting_cars_prediction_does_not_take_its_id(monkeypatch):
+    """car_static seed 111 object 3 (3.89 m long) goes unseen for 0.8 s.  After 1 s without an
+    update its position std is 2.5 m, and a new track is started 4.3 m from its prediction on
+    an 8.9 m piece of the wall (y = 9 m).  Without the size rule that track took the car's id
+    (checked: 1 switch, the car coming back under a new id); with it, a track more than
+    SIZE_GROWTH times the car's length is not the car found again: one id."""
+    scans = scans_from_messages(KINDS['car_static'](111).messages())
+    config = configuration('car_static', TrackerConfig())
+    result = score(scans, run_offline(scans, config)[0])[3]
+    assert len(result.track_ids) == 1 and result.id_switches == 0, result
+    assert result.position_rmse < 0.3 and result.velocity_rmse < 0.8, result
+    monkeypatch.setattr(object_tracker, 'SIZE_GROWTH', np.inf)
+    before = score(scans, run_offline(scans, config)[0])[3]
+    assert before.id_switches >= 1, before
+
+
 def test_a_car_coasting_out_of_view_is_kept_while_its_prediction_is_vague(monkeypatch):
     """f1tenth_static seed 416 object 2 leaves the field of view for 1.6 s.  After 1.3 s of
     coasting (position std 3.7 m) its predicted rectangle comes back into view 0.2 m ahead of
