@@ -37,12 +37,13 @@ def cluster_consecutive(points: np.ndarray, gap: float, min_points: int = 1,
         return labels
     index = np.flatnonzero(valid)
     valid_points = points[index]
-    jumps = np.hypot(*np.diff(valid_points, axis=0).T) > gap
+    steps = np.hypot(*np.diff(valid_points, axis=0).T)
+    jumps = steps > gap
     # a skipped invalid return between two valid ones also separates them
     jumps |= np.diff(index) > 1
     if face_tolerance > 0:
         _join_faces(valid_points, index, jumps, max(min_points, 2), face_tolerance,
-                    longest_step)
+                    steps <= longest_step)
     raw = np.concatenate([[0], np.cumsum(jumps)])
     counts = np.bincount(raw)
     keep = counts[raw] >= min_points
@@ -52,17 +53,17 @@ def cluster_consecutive(points: np.ndarray, gap: float, min_points: int = 1,
 
 
 def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor: int,
-                tolerance: float, longest: float = np.inf) -> None:
-    """Clear jumps[t] (between valid returns t and t + 1, at most `longest` [m] apart) where the
-    returns lie on one face (_continues, either way round) and the face goes on from a group of
-    at least `anchor` returns on the near side: a cluster is continued outwards, return by
-    return, first forwards then backwards; returns that only line up with each other (a wall
-    seen at a grazing angle) do not become a cluster."""
+                tolerance: float, short: np.ndarray) -> None:
+    """Clear jumps[t] (between valid returns t and t + 1, where short[t]: not too far apart to
+    be one object's) where the returns lie on one face (_continues, either way round) and the
+    face goes on from a group of at least `anchor` returns on the near side: a cluster is
+    continued outwards, return by return, first forwards then backwards; returns that only
+    line up with each other (a wall seen at a grazing angle) do not become a cluster."""
     segment = np.concatenate([[0], np.cumsum(jumps)])
     anchored = np.bincount(segment) >= anchor
     ahead = _continues(points, index, tolerance)   # t + 2 continues t -> t + 1
     behind = np.concatenate([[False], ahead[:-1]])  # t + 1 continues t - 1 -> t
-    joins = jumps & (ahead | behind) & (np.hypot(*np.diff(points, axis=0).T) <= longest)
+    joins = jumps & (ahead | behind) & short
     at = np.flatnonzero(jumps)
     group = bool(anchored[0])
     for t in at:                  # forwards: the group on the left grows

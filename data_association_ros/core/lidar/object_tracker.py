@@ -227,6 +227,12 @@ class LidarObjectTracker:
         """The beams' free lengths end this far [m] before their returns: 2 point_sigma."""
         return 2 * self.config.point_sigma
 
+    @property
+    def _largest(self) -> float:
+        """The longest object of the size class [m]: max_size_ratio x the larger prior;
+        anything longer is background (walls)."""
+        return self.config.max_size_ratio * max(self.config.priors())
+
     def configure(self, config: TrackerConfig) -> None:
         """New parameters, from the next scan (tracks are kept)."""
         self.config = config
@@ -279,8 +285,7 @@ class LidarObjectTracker:
         self._rays = beams(points, self._origins, directions, self._margin, max_range)
         self._range_known = max_range is not None and bool(np.isfinite(max_range))
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
-                                     FACE_SIGMAS * config.point_sigma,
-                                     config.max_size_ratio * max(config.priors()))
+                                     FACE_SIGMAS * config.point_sigma, self._largest)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
                                              max_range)
         self._occluded = occluded
@@ -310,7 +315,7 @@ class LidarObjectTracker:
                 free[clusters] = False
             elif self._established(track):
                 lost.update({cluster: track for cluster in clusters})
-        largest = config.max_size_ratio * max(config.priors())
+        largest = self._largest
         self.tracks = [t for t in self.tracks if max(t.length, t.width) <= largest
                        and np.all(np.isfinite(t.filter.x)) and np.all(np.isfinite(t.filter.p))]
         taking = {id(t) for t in lost.values()}  # coasting, took a cluster it cannot correct
@@ -691,7 +696,7 @@ class LidarObjectTracker:
         prior length)."""
         config = self.config
         prior_length, prior_width = config.priors()
-        largest = config.max_size_ratio * max(prior_length, prior_width)
+        largest = self._largest
         if np.hypot(*(cluster[-1] - cluster[0])) > np.sqrt(2) * largest:
             return None  # its ends are farther apart than the diagonal of any object this size
         centre, yaw, length, width = fit_rectangle(cluster, prior_length, prior_width,
