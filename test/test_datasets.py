@@ -16,7 +16,7 @@ import scipy.io
 
 from data_association_ros.bag.datasets import (CLUTTER, DEFAULT_DATA_DIRECTORY, SEQUENCES,
                                                SlamSequence)
-from data_association_ros.bag.datasets import mrclam, ttk4250
+from data_association_ros.bag.datasets import acfr_car_park, mrclam, ttk4250
 
 REPOSITORY = Path(__file__).resolve().parents[1]
 DATA = REPOSITORY.parent / 'shared' / 'data'
@@ -65,7 +65,8 @@ def flat(sequence: SlamSequence, attribute: str) -> np.ndarray:
 def test_registry_and_default_directory():
     assert set(SEQUENCES) == {'ttk4250_simulated', 'ttk4250_simulated_clutter5',
                               'ttk4250_simulated_clutter20', 'dlr_spatial_cognition',
-                              'mrclam_robot1', 'mrclam_robot2', 'victoria_park'}
+                              'mrclam_robot1', 'mrclam_robot2', 'victoria_park',
+                              'acfr_car_park'}
     assert DEFAULT_DATA_DIRECTORY == DATA
     assert DEFAULT_DATA_DIRECTORY.is_dir()
 
@@ -405,6 +406,126 @@ def test_victoria_park_increments_reproduce_odometry(sequences):
     assert spans[k] > 3
     assert np.allclose(sequence.steps[k].increment_covariance, jacobian @ noise @ jacobian.T,
                        rtol=1e-5, atol=1e-12)
+
+
+# ---------------------------------------------------------------- ACFR car park
+
+@lru_cache(maxsize=None)
+def acfr_source():
+    folder = DATA / 'acfr_car_park'
+    return scipy.io.loadmat(folder / 'data_set.mat'), scipy.io.loadmat(folder / 'beac_juan3.mat')
+
+
+def test_acfr_beacon_detections_by_hand():
+    """Reflective returns joined while consecutive ones are within 0.5 m, no-return ranges
+    (81.9 m) ignored, dark returns ignored; mean range and bearing (beam i at i/2 - 90 deg)."""
+    ranges = np.full(361, 30.0)
+    intensities = np.zeros(361, dtype=np.uint16)
+    ranges[[100, 101, 102, 106, 107]] = 5.0      # 4 beams = 2 deg = 0.17 m: one beacon
+    intensities[[100, 101, 102, 106, 107]] = 8192
+    ranges[[200, 201]] = [10.0, 10.2]            # 13.5 m further round: another one
+    intensities[[200, 201]] = 16384
+    ranges[300], intensities[300] = 81.9, 8192   # reflective but no return
+    ranges[[180, 181]] = 20.0                    # a dark object
+    found = acfr_car_park.beacon_detections(ranges, intensities)
+    np.testing.assert_allclose(found, [[5.0, np.deg2rad(103.2 / 2 - 90)],
+                                       [10.1, np.deg2rad(200.5 / 2 - 90)]])
+    ranges[[106, 107]] = 5.6                     # 0.6 m behind: a second beacon
+    found = acfr_car_park.beacon_detections(ranges, intensities)
+    np.testing.assert_allclose(found[:2], [[5.0, np.deg2rad(50.5 - 90)],
+                                           [5.6, np.deg2rad(53.25 - 90)]])
+    assert acfr_car_park.beacon_detections(np.full(361, 81.9), np.ones(361)).shape == (0, 2)
+
+
+def test_acfr_counts_and_truth(sequences):
+    data, beacons = acfr_source()
+    sequence = sequences('acfr_car_park')
+    reflective = (data['Intensity'] > 0) & (data['Laser'] < 80)
+    seen = reflective.any(axis=1)
+    scan_ms = np.round(data['TimeLaser'][0] * 1000).astype(np.int64)[seen]
+    assert [step.time_ns for step in sequence.steps] == [int(t) * 1_000_000 for t in scan_ms]
+    assert len(sequence.steps) == int(seen.sum()) == 506
+    counts = [len(step.truth) for step in sequence.steps]
+    assert all(1 <= c <= n for c, n in zip(counts, reflective[seen].sum(axis=1)))
+    truth, certain = flat(sequence, 'truth'), flat(sequence, 'truth_certain')
+    assert sequence.true_landmarks.keys() == set(range(1, 16))
+    for landmark, row in zip(range(1, 16), beacons['estbeac']):
+        assert np.array_equal(sequence.true_landmarks[landmark], row)
+    # nearly every detection lies on a surveyed beacon; a few are clutter or uncertain
+    assert np.sum(certain & (truth > 0)) >= 0.99 * len(truth)
+    assert np.sum(truth == CLUTTER) <= 5 and np.sum(~certain) <= 5
+    # and no scan sees one beacon twice (a near beacon's runs are joined)
+    for step in sequence.steps:
+        labels = step.truth[step.truth > 0]
+        assert len(labels) == len(set(labels.tolist()))
+
+
+def test_acfr_increments_reproduce_the_car_model(sequences):
+    """A plain loop over the 40 Hz samples: the rear axle's centre moves at v / (1 - tan(s) H
+    / L) and turns at that over L times tan(s), exact arcs; the laser rides at (3.78, 0.5) m."""
+    data, _ = acfr_source()
+    sequence = sequences('acfr_car_park')
+    times = [int(round(t * 1000)) for t in data['Time_VS'][0]]
+    length, offset = 2.83, 0.76
+    x = y = yaw = 0.0
+    laser, scans = [], [step.time_ns // 1_000_000 for step in sequence.steps]
+    queries = [times[0]] + scans
+    q = 0
+    for i, (v, s) in enumerate(zip(data['Velocity'][0], data['Steering'][0])):
+        v_c = v / (1 - math.tan(s) * offset / length)
+        w = v_c * math.tan(s) / length
+        start, end = times[i], times[i + 1] if i + 1 < len(times) else queries[-1]
+        while True:
+            stop = min(end, queries[q]) if q < len(queries) else end
+            dt = (stop - start) * 1e-3
+            if abs(w) > 1e-12:
+                x += v_c / w * (math.sin(yaw + w * dt) - math.sin(yaw))
+                y -= v_c / w * (math.cos(yaw + w * dt) - math.cos(yaw))
+            else:
+                x += v_c * dt * math.cos(yaw)
+                y += v_c * dt * math.sin(yaw)
+            yaw += w * dt
+            start = stop
+            if q < len(queries) and stop == queries[q]:
+                c, sn = math.cos(yaw), math.sin(yaw)
+                laser.append((x + 3.78 * c - 0.5 * sn, y + 3.78 * sn + 0.5 * c, yaw))
+                q += 1
+                continue
+            break
+    assert len(laser) == len(queries)
+    path = compose_path(sequence.initial_pose, [step.increment for step in sequence.steps])
+    for k in range(1, len(laser)):
+        assert same_pose(_between(path[0], path[k]), _between(laser[0], laser[k]), 1e-6), k
+
+
+def _between(a, b) -> np.ndarray:
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return np.array([c * dx + s * dy, -s * dx + c * dy, b[2] - a[2]])
+
+
+def test_acfr_true_heading_follows_the_gps_track_on_straights(sequences):
+    """The true heading (odometry turned onto the GPS fixes) against the direction the GPS
+    antenna moves while the car drives straight (|steering| < 0.02 rad, > 1 m/s)."""
+    data, _ = acfr_source()
+    sequence = sequences('acfr_car_park')
+    gps_t = data['TimeGPS'][0]
+    gps = np.column_stack([data['GPSLon'][0], data['GPSLat'][0]])
+    checked = 0
+    for step in sequence.steps:
+        t = step.time_ns * 1e-9
+        i = np.searchsorted(gps_t, t)
+        if i < 1 or i + 1 >= len(gps_t):
+            continue
+        window = (data['Time_VS'][0] > t - 0.5) & (data['Time_VS'][0] < t + 0.5)
+        if np.abs(data['Steering'][0][window]).max() > 0.02 or \
+                data['Velocity'][0][window].min() < 1.0:
+            continue
+        direction = gps[i + 1] - gps[i - 1]
+        error = wrap(math.atan2(direction[1], direction[0]) - step.true_pose[2])
+        assert abs(error) < np.deg2rad(5), (t, np.rad2deg(error))
+        checked += 1
+    assert checked >= 10   # 14 such scans
 
 
 @pytest.mark.parametrize('name', sorted(SEQUENCES))

@@ -2,15 +2,15 @@
 
 `SEQUENCES` maps a bag name to a loader taking the root data directory (the folder holding
 `ttk4250_simulated_slam/`, `dlr_spatial_cognition/`, `utias_mrclam_ds1_robot1/`,
-`utias_mrclam_ds1_robot2/` and `victoria_park/`); `DEFAULT_DATA_DIRECTORY` is that folder next to the repository
-(<repo>/../shared/data).
+`utias_mrclam_ds1_robot2/`, `victoria_park/` and `acfr_car_park/`); `DEFAULT_DATA_DIRECTORY` is
+that folder next to the repository (<repo>/../shared/data).
 """
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Callable
 
-from . import dlr, mrclam, ttk4250, victoria_park
+from . import acfr_car_park, dlr, mrclam, ttk4250, victoria_park
 from .sequence import CLUTTER, SlamSequence, SlamStep
 
 DEFAULT_DATA_DIRECTORY = Path(__file__).resolve().parents[4] / 'shared' / 'data'
@@ -38,6 +38,7 @@ SEQUENCES: dict[str, Callable[[Path], SlamSequence]] = {
     'mrclam_robot1': lambda root: mrclam.load(Path(root) / mrclam.FOLDER),
     'mrclam_robot2': lambda root: mrclam.load(Path(root) / mrclam.ROBOT2_FOLDER, robot=2),
     'victoria_park': lambda root: victoria_park.load(Path(root) / victoria_park.FOLDER),
+    'acfr_car_park': lambda root: acfr_car_park.load(Path(root) / acfr_car_park.FOLDER),
 }
 """Bag name -> loader(root data directory) -> SlamSequence."""
 

@@ -61,6 +61,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.multi_hypothesis.motion import between
+from .dead_reckoning import integrate_hold, milliseconds
 from .sequence import CLUTTER, COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'utias_mrclam_ds1_robot1'
@@ -91,36 +92,6 @@ robots, which stand still for minutes and then move away.  On robot 1's first 15
 (docs/slam.md)."""
 
 
-def _milliseconds(seconds: np.ndarray) -> np.ndarray:
-    """Unix times [s] with millisecond resolution as int64 milliseconds."""
-    return np.round(np.asarray(seconds, dtype=float) * 1000.0).astype(np.int64)
-
-
-def _integrate(odometry_ms: np.ndarray, v: np.ndarray, w: np.ndarray,
-              query_ms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Dead reckoning of zero-order-hold (v [m/s], w [rad/s]) samples at odometry_ms (N,)
-    [int ms, increasing], starting at the zero pose at odometry_ms[0].  Returns, at query_ms
-    (M,) (>= odometry_ms[0]): poses (M, 3) [m, m, rad, heading unwrapped], travelled distance
-    (M,) [m] and turned angle (M,) [rad] (integrals of |v| and |w|)."""
-    query_ms = np.asarray(query_ms, dtype=np.int64)
-    if len(query_ms) and query_ms.min() < odometry_ms[0]:
-        raise ValueError('a query time precedes the first odometry sample')
-    grid = np.union1d(odometry_ms, query_ms)                      # sorted, unique [ms]
-    sample = np.searchsorted(odometry_ms, grid[:-1], side='right') - 1
-    dt = np.diff(grid) * 1e-3
-    speed, rate = v[sample], w[sample]
-    turn = rate * dt
-    heading = np.concatenate([[0.0], np.cumsum(turn)])
-    chord = speed * dt * np.sinc(turn / (2.0 * np.pi))            # sin(turn/2) / (turn/2)
-    angle = heading[:-1] + 0.5 * turn
-    x = np.concatenate([[0.0], np.cumsum(chord * np.cos(angle))])
-    y = np.concatenate([[0.0], np.cumsum(chord * np.sin(angle))])
-    distance = np.concatenate([[0.0], np.cumsum(np.abs(speed) * dt)])
-    rotation = np.concatenate([[0.0], np.cumsum(np.abs(turn))])
-    at = np.searchsorted(grid, query_ms)
-    return np.column_stack([x[at], y[at], heading[at]]), distance[at], rotation[at]
-
-
 def _increment_covariances(distance: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """(M, 3, 3) diagonal increment covariances for steps of distance (M,) [m] and absolute
     rotation (M,) [rad] (the model in the module docstring)."""
@@ -140,10 +111,10 @@ def load(data_directory: Path, robot: int = 1) -> SlamSequence:
     barcodes = np.loadtxt(data_directory / 'Barcodes.dat', comments='#', dtype=np.int64, ndmin=2)
     ground = np.loadtxt(data_directory / 'Landmark_Groundtruth.dat', comments='#', ndmin=2)
 
-    odometry_ms = _milliseconds(odometry[:, 0])
+    odometry_ms = milliseconds(odometry[:, 0])
     last = np.append(odometry_ms[1:] != odometry_ms[:-1], True)   # zero-length holds dropped
     odometry, odometry_ms = odometry[last], odometry_ms[last]
-    measurement_ms = _milliseconds(measurements[:, 0])
+    measurement_ms = milliseconds(measurements[:, 0])
     if np.any(np.diff(odometry_ms) <= 0) or np.any(np.diff(measurement_ms) < 0):
         raise ValueError('odometry or measurement times are not sorted')
     subject_of = np.full(barcodes[:, 1].max() + 1, -1, dtype=np.int64)
@@ -154,7 +125,8 @@ def load(data_directory: Path, robot: int = 1) -> SlamSequence:
     truth = np.where(subjects >= FIRST_LANDMARK_SUBJECT, subjects, CLUTTER)
 
     scan_ms, first = np.unique(measurement_ms, return_index=True)
-    poses, distance, rotation = _integrate(odometry_ms, odometry[:, 1], odometry[:, 2], scan_ms)
+    poses, distance, rotation = integrate_hold(odometry_ms, odometry[:, 1], odometry[:, 2],
+                                               scan_ms)
     previous = np.vstack([np.zeros(3), poses[:-1]])
     increments = between(previous, poses)
     covariances = _increment_covariances(np.diff(distance, prepend=0.0),

@@ -1,7 +1,7 @@
 """A SLAM data set in one form: odometry increments and observations per step, with the truth.
 
-Every converter in this package (`ttk4250`, `dlr`, `mrclam`, `victoria_park`) returns a
-`SlamSequence`; `slam_bags` turns it into a bag.  Units: metres, radians, nanoseconds.
+Every converter in this package (`ttk4250`, `dlr`, `mrclam`, `victoria_park`, `acfr_car_park`)
+returns a `SlamSequence`; `slam_bags` turns it into a bag.  Units: metres, radians, nanoseconds.
 """
 from __future__ import annotations
 
