@@ -33,27 +33,30 @@ def difference_matrix(size: int, i: int, j: int) -> np.ndarray:
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 10_000), landmarks=st.integers(2, 6), data=st.data())
-def test_merge_statistic_and_fusion_match_explicit_matrices(seed, landmarks, data):
+@given(seed=st.integers(0, 10_000), landmarks=st.integers(2, 6),
+       floor=st.sampled_from([0.0, 0.05, 0.3, 2.0]), data=st.data())
+def test_merge_statistic_and_fusion_match_explicit_matrices(seed, landmarks, floor, data):
     i = data.draw(st.integers(0, landmarks - 1))
     j = data.draw(st.integers(0, landmarks - 1).filter(lambda k: k != i))
     slam = random_filter(seed, landmarks)
     mean, covariance = slam.mean.copy(), slam.covariance.copy()
     h = difference_matrix(len(mean), i, j)
-    s = h @ covariance @ h.T
+    s = h @ covariance @ h.T + floor ** 2 * np.eye(2)
     d = h @ mean
-    statistic, _, _ = merge_statistic(slam, i, j)
+    statistic, _, _ = merge_statistic(slam, i, j, floor)
     assert statistic == pytest.approx(d @ np.linalg.solve(s, d), rel=1e-8)
-    # conditioning on l_i = l_j: Kalman update with z = 0, R -> 0, explicit K
+    # conditioning on 0 = l_i - l_j + v, v ~ N(0, floor^2 I): Kalman update with z = 0,
+    # R = floor^2 I (R -> 0 for floor 0), explicit K
     gain = covariance @ h.T @ np.linalg.inv(s)
     expected_mean = mean - gain @ d
     expected_covariance = covariance - gain @ s @ gain.T
-    fuse_equal(slam, i, j)
+    fuse_equal(slam, i, j, floor)
     np.testing.assert_allclose(slam.mean[:2], expected_mean[:2], atol=1e-8)
     np.testing.assert_allclose(slam.mean[3:], expected_mean[3:], atol=1e-8)
     np.testing.assert_allclose(slam.covariance, expected_covariance, atol=1e-8)
-    np.testing.assert_allclose(slam.mean[3 + 2 * i:5 + 2 * i], slam.mean[3 + 2 * j:5 + 2 * j],
-                               atol=1e-8)
+    if floor == 0.0:
+        np.testing.assert_allclose(slam.mean[3 + 2 * i:5 + 2 * i],
+                                   slam.mean[3 + 2 * j:5 + 2 * j], atol=1e-8)
     assert np.allclose(slam.covariance, slam.covariance.T)
     assert np.linalg.eigvalsh(slam.covariance).min() > -1e-8
 
@@ -70,26 +73,43 @@ def test_remove_landmarks_deletes_their_rows_and_keeps_the_rest_in_order():
         remove_landmarks(slam, np.array([11]))
 
 
-def two_sightings_filter(second_offset: float) -> EkfSlam:
-    """A robot at the origin facing +x that started landmark 0 at (5, 0) and then, after a
-    move of 1 m, landmark 1 from a sighting `second_offset` m to the left of (5, 0)."""
+def first_sighting() -> EkfSlam:
+    """A robot at the origin facing +x that started landmark 0 at (5, 0)."""
     slam = EkfSlam([0.0, 0.0, 0.0], np.diag([0.01, 0.01, 0.001]), 'point_robot')
-    noise = np.diag([0.02, 0.02])[None]
-    slam.add_landmarks(np.array([[5.0, 0.0]]), noise, np.array([0]))
-    slam.predict(np.array([1.0, 0.0, 0.0]), np.diag([0.01, 0.01, 0.001]))
-    slam.add_landmarks(np.array([[4.0, second_offset]]), noise, np.array([1]))
+    slam.add_landmarks(np.array([[5.0, 0.0]]), np.diag([0.02, 0.02])[None], np.array([0]))
     return slam
 
 
-def test_manager_merges_a_second_landmark_of_one_point_and_keeps_the_older():
-    slam = two_sightings_filter(0.05)
-    manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
+def second_sighting(slam: EkfSlam, offset: float) -> EkfSlam:
+    """Then, after a move of 1 m, landmark 1 started from a sighting `offset` m to the left of
+    (5, 0)."""
+    slam.predict(np.array([1.0, 0.0, 0.0]), np.diag([0.01, 0.01, 0.001]))
+    slam.add_landmarks(np.array([[4.0, offset]]), np.diag([0.02, 0.02])[None], np.array([1]))
+    return slam
+
+
+def two_sightings_filter(second_offset: float) -> EkfSlam:
+    """Both sightings (first_sighting, then second_sighting)."""
+    return second_sighting(first_sighting(), second_offset)
+
+
+def two_scans(manager: LandmarkManager, offset: float) -> tuple[EkfSlam, list]:
+    """Landmark 0 started on one scan, landmark 1 (`offset`) on the next; the merges of the
+    second scan."""
+    slam = first_sighting()
     manager.started([0])
+    assert manager.after_scan(slam, []).merged == []
+    second_sighting(slam, offset)
     manager.started([1])
-    statistic, _, _ = merge_statistic(slam, 0, 1)
+    return slam, manager.after_scan(slam, []).merged
+
+
+def test_manager_merges_a_second_landmark_of_one_point_and_keeps_the_older():
+    statistic, _, _ = merge_statistic(two_sightings_filter(0.05), 0, 1)
     assert statistic < chi2.ppf(0.99, 2)
-    result = manager.after_scan(slam, [])
-    assert result.merged == [(1, 0)] and result.dropped == []
+    slam, merged = two_scans(LandmarkManager(LandmarkManagementConfig(merge_probability=0.99)),
+                             0.05)
+    assert merged == [(1, 0)]
     np.testing.assert_array_equal(slam.ids, [0])
     assert slam.covariance.shape == (5, 5)
     # the merged point lies between the two sightings' positions (5, 0) and (5, 0.05)
@@ -97,13 +117,71 @@ def test_manager_merges_a_second_landmark_of_one_point_and_keeps_the_older():
 
 
 def test_manager_keeps_two_points_the_test_separates():
-    slam = two_sightings_filter(1.5)         # 1.5 m apart, sigma ~0.2 m: different points
-    manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
-    manager.started([0, 1])
-    statistic, _, _ = merge_statistic(slam, 0, 1)
-    assert statistic > chi2.ppf(0.99, 2)
-    assert manager.after_scan(slam, []).merged == []
+    statistic, _, _ = merge_statistic(two_sightings_filter(1.5), 0, 1)
+    assert statistic > chi2.ppf(0.99, 2)     # 1.5 m apart, sigma ~0.2 m: different points
+    slam, merged = two_scans(LandmarkManager(LandmarkManagementConfig(merge_probability=0.99)),
+                             1.5)
+    assert merged == []
     np.testing.assert_array_equal(slam.ids, [0, 1])
+
+
+def test_two_landmarks_seen_on_one_scan_are_never_merged():
+    """One scan sees an object once: landmarks started or fused on the same scan are two
+    objects, however close (the pair two_scans merges, 0.05 m apart)."""
+    for together in ('started', 'fused'):
+        slam = two_sightings_filter(0.05)
+        manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
+        if together == 'started':
+            manager.started([0, 1])
+        else:
+            manager.started([0])
+            manager.fused([1])
+        assert manager.after_scan(slam, []).merged == []
+        for _ in range(3):                  # later scans that see one of them: still two
+            manager.fused([1])
+            assert manager.after_scan(slam, [1]).merged == []
+        np.testing.assert_array_equal(slam.ids, [0, 1])
+
+
+def test_merge_floor_merges_a_copy_the_tight_covariance_keeps_apart():
+    """A second landmark 0.4 m from the first, both with 0.03 m std and no correlation: the
+    statistic is 0.16 / (2 * 0.0009) = 88.9 without a floor (kept apart), 0.16 / (0.0018 +
+    0.0225) = 6.58 with a 0.15 m floor (merged at 0.99: 9.21), and the soft fusion leaves the
+    kept landmark between the two (the gain on l_0 is 0.0009 / 0.0243 of d)."""
+    noise = np.eye(2)[None] * 0.0009
+    for floor, statistic, merged in ((0.0, 0.16 / 0.0018, []), (0.15, 0.16 / 0.0243, [(1, 0)])):
+        slam = EkfSlam([0.0, 0.0, 0.0], np.zeros((3, 3)), 'point_robot')   # a known pose:
+        slam.add_landmarks(np.array([[5.0, 0.0]]), noise, np.array([0]))   # no correlation
+        manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99,
+                                                           merge_floor=floor))
+        manager.started([0])
+        manager.after_scan(slam, [])
+        slam.add_landmarks(np.array([[5.0, 0.4]]), noise, np.array([1]))
+        assert merge_statistic(slam, 0, 1, floor)[0] == pytest.approx(statistic)
+        manager.started([1])
+        assert manager.after_scan(slam, []).merged == merged
+    np.testing.assert_array_equal(slam.ids, [0])
+    assert slam.mean[3:5] == pytest.approx([5.0, 0.4 * 0.0009 / 0.0243])
+
+
+def test_seen_together_follows_a_merge():
+    """Landmark 2 was seen with landmark 1; 1 is merged into 0; then 0 and 2 count as seen
+    together: 2, 0.05 m from 0, is not merged into it."""
+    slam = EkfSlam([0.0, 0.0, 0.0], np.zeros((3, 3)), 'point_robot')
+    noise = np.eye(2)[None] * 0.01
+    slam.add_landmarks(np.array([[5.0, 0.0]]), noise, np.array([0]))
+    manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
+    manager.started([0])
+    manager.after_scan(slam, [])
+    slam.add_landmarks(np.array([[5.0, 0.02], [5.0, -0.05]]), np.repeat(noise, 2, axis=0),
+                       np.array([1, 2]))
+    manager.started([1, 2])                 # 1 and 2 on one scan; 1 is nearer 0 than 2 is
+    result = manager.after_scan(slam, [])
+    assert result.merged == [(1, 0)]        # the smallest statistic first; 2 then seen with 0
+    assert manager.together[0] == {2} and manager.together[2] == {0}
+    manager.fused([2])
+    assert manager.after_scan(slam, [2]).merged == []
+    np.testing.assert_array_equal(slam.ids, [0, 2])
 
 
 def test_manager_drops_a_landmark_predicted_in_view_but_never_seen():

@@ -115,12 +115,17 @@ SLAM_PARAMETERS = (
                   spec=ParameterSpec('local_map_euclidean_gate', EUCLIDEAN_GATE, '', low=0.0)),
     NodeParameter('merge_probability', 0.0, 'closed loop: merge two landmarks when their '
                   'difference passes the chi-square test at this probability (joint covariance '
-                  'included; core/slam/landmark_management.py); 0: never',
+                  'included) and no scan saw both (core/slam/landmark_management.py); 0: never',
                   spec=ParameterSpec('merge_probability', 0.0, '', low=0.0, high=1.0,
                                      high_open=True)),
     NodeParameter('merge_distance', 2.0, 'only landmarks closer than this are tested for a '
                   'merge [m]', spec=ParameterSpec('merge_distance', 2.0, '', low=0.0,
                                                   low_open=True)),
+    NodeParameter('merge_floor', 0.0, 'merge test and fusion: the difference of two landmarks '
+                  'gets this much independent noise [m std] on top of their joint covariance '
+                  '(for a filter whose covariances are tighter than its errors); 0: none, an '
+                  'exact fusion',
+                  spec=ParameterSpec('merge_floor', 0.0, '', low=0.0, high=100.0)),
     NodeParameter('drop_misses', 0, 'closed loop: drop a landmark seen at most '
                   'drop_max_sightings times once it was predicted in view on this many scans '
                   'in a row without being seen; 0: never',
@@ -376,6 +381,7 @@ class SlamPipeline:
         c = self.config
         return LandmarkManagementConfig(
             merge_probability=c['merge_probability'], merge_distance=c['merge_distance'],
+            merge_floor=c['merge_floor'],
             drop_misses=c['drop_misses'], drop_max_sightings=c['drop_max_sightings'],
             view_range=c['view_range'] if c['view_range'] > 0 else self.sensor_reach,
             view_half_angle=c['view_half_angle'])

@@ -54,6 +54,14 @@ MAP_REFINDING = {'refind_window_scans': 15}
 comes back 4-5 m and 10-20 deg off; the last 15 scans' observations registered against the
 landmarks first seen 300 or more scans earlier (default settings).  Full bag, jcbb closed loop:
 98.01 -> 98.79 % correct, duplicates 144 -> 76, pose RMSE 2.34 -> 1.00 m (docs/slam.md)."""
+LANDMARK_MERGING = {'merge_probability': 0.99, 'merge_floor': 0.15}
+"""ekf_slam_node parameters of the bag: merge two landmarks no scan saw together whose
+difference passes the 0.99 chi-square test with 0.15 m of independent noise added to it (the
+filter's covariances are centimetres while its pose drifts metres; core/slam/
+landmark_management.py).  Full bag, closed loop, duplicates before -> after: maximum_likelihood
+61 -> 29 (98.80 -> 98.30 % correct), jcbb 77 -> 30 (98.78 -> 97.93 %); floors 0.12-0.16 give
+29-31 duplicates and 98.04-98.39 % with maximum_likelihood, 0.05 keeps jcbb at 98.71 % with 48,
+0.2 loses the map (96.62 %) (docs/slam.md)."""
 
 
 def _load(path: Path, name: str):
@@ -92,4 +100,5 @@ def load(data_directory: Path) -> SlamSequence:
                     'observations of white circles; truth = the data set IDs (23001 uncertain).',
         model='point_robot', initial_pose=initial_pose, initial_covariance=np.zeros((3, 3)),
         steps=steps, true_landmarks=None,
-        parameters={**COURSE_SIGNIFICANCE, **POSE_RECOVERY, **MAP_REFINDING})
+        parameters={**COURSE_SIGNIFICANCE, **POSE_RECOVERY, **MAP_REFINDING},
+        slam_parameters=dict(LANDMARK_MERGING))

@@ -2,13 +2,16 @@
 predicted in view again and again but never seen.
 
 Merge.  Two landmarks i, j of the state are one when the difference d = l_i - l_j passes the
-chi-square test d^T D^-1 d <= chi2(2, merge_probability), D = P_ii + P_jj - P_ij - P_ji (the
-covariance of d, with the cross-correlation the filter holds).  They are fused exactly by the
-noise-free pseudo-measurement 0 = l_i - l_j (K = P H^T D^-1, x -= K d, P -= K D K^T,
-H = [.. I .. -I ..]); then l_j equals l_i and is removed from the state (its rows and columns
-deleted), the older landmark i stays.  Tested pairs: each landmark fused or started since the
-last call against every other landmark within merge_distance [m] (Euclidean pre-filter), the
-smallest statistic first, each landmark merged at most once per call.
+chi-square test d^T D^-1 d <= chi2(2, merge_probability), D = P_ii + P_jj - P_ij - P_ji + f^2 I
+(the covariance of d, with the cross-correlation the filter holds, and merge_floor f [m] for a
+filter whose covariances are tighter than its errors; f = 0: none).  They are fused by the
+pseudo-measurement 0 = l_i - l_j + v, v ~ N(0, f^2 I) (K = P H^T D^-1, x -= K d, P -= K D K^T,
+H = [.. I .. -I ..]; f = 0: exactly, l_j then equals l_i); l_j is then removed from the state
+(its rows and columns deleted), the older landmark i stays.  Tested pairs: each landmark fused
+or started since the last call against every other landmark within merge_distance [m]
+(Euclidean pre-filter) that was never fused or started on the same scan as it (one scan sees
+an object once: two landmarks seen together are two objects), the smallest statistic first,
+each landmark merged at most once per call.
 
 Drop.  Each landmark counts its sightings (scans on which it was fused, its start included) and
 its misses: scans in a row since its last sighting on which its mean was predicted in view -
@@ -34,12 +37,13 @@ MERGE_REGULARISATION = 1e-12
 
 @dataclass
 class LandmarkManagementConfig:
-    """merge_probability in (0, 1) (0: no merging); merge_distance [m]; drop_misses (0: no
-    dropping); drop_max_sightings (0: no limit); view_range [m] (0: no limit);
-    view_half_angle [rad]."""
+    """merge_probability in (0, 1) (0: no merging); merge_distance [m]; merge_floor [m];
+    drop_misses (0: no dropping); drop_max_sightings (0: no limit); view_range [m] (0: no
+    limit); view_half_angle [rad]."""
 
     merge_probability: float = 0.0
     merge_distance: float = 2.0
+    merge_floor: float = 0.0
     drop_misses: int = 0
     drop_max_sightings: int = 1
     view_range: float = 0.0
@@ -71,21 +75,23 @@ def remove_landmarks(slam: EkfSlam, ids: np.ndarray) -> None:
     slam.ids = np.delete(slam.ids, index)
 
 
-def merge_statistic(slam: EkfSlam, i: int, j: int) -> tuple[float, np.ndarray, np.ndarray]:
-    """(d^T D^-1 d, d (2,), D (2, 2)) of landmarks at map indices i, j (see the module doc)."""
+def merge_statistic(slam: EkfSlam, i: int, j: int,
+                    floor: float = 0.0) -> tuple[float, np.ndarray, np.ndarray]:
+    """(d^T D^-1 d, d (2,), D (2, 2)) of landmarks at map indices i, j, floor f [m] (see the
+    module doc)."""
     a, b = POSE + LANDMARK * i, POSE + LANDMARK * j
     p = slam.covariance
     d = slam.mean[a:a + LANDMARK] - slam.mean[b:b + LANDMARK]
     block = (p[a:a + LANDMARK, a:a + LANDMARK] + p[b:b + LANDMARK, b:b + LANDMARK]
              - p[a:a + LANDMARK, b:b + LANDMARK] - p[b:b + LANDMARK, a:a + LANDMARK])
-    block = 0.5 * (block + block.T) + MERGE_REGULARISATION * np.eye(LANDMARK)
+    block = 0.5 * (block + block.T) + (MERGE_REGULARISATION + floor ** 2) * np.eye(LANDMARK)
     return float(d @ np.linalg.solve(block, d)), d, block
 
 
-def fuse_equal(slam: EkfSlam, i: int, j: int) -> None:
-    """Condition the state on l_i = l_j (map indices; see the module doc); l_j stays in the
-    state with the same mean and rows as l_i."""
-    _, d, block = merge_statistic(slam, i, j)
+def fuse_equal(slam: EkfSlam, i: int, j: int, floor: float = 0.0) -> None:
+    """Condition the state on l_i = l_j + v, v ~ N(0, floor^2 I) (map indices; see the module
+    doc); floor 0: l_j stays in the state with the same mean and rows as l_i."""
+    _, d, block = merge_statistic(slam, i, j, floor)
     a, b = POSE + LANDMARK * i, POSE + LANDMARK * j
     p = slam.covariance
     p_ht = p[:, a:a + LANDMARK] - p[:, b:b + LANDMARK]          # P H^T (n, 2)
@@ -104,6 +110,7 @@ class LandmarkManager:
         self.sightings: dict[int, int] = {}
         self.misses: dict[int, int] = {}
         self.fresh: set[int] = set()     # fused or started since the last call
+        self.together: dict[int, set[int]] = {}   # landmarks fused or started on one scan
 
     @property
     def active(self) -> bool:
@@ -134,6 +141,8 @@ class LandmarkManager:
         if self.config.drop_misses > 0:
             self._count_misses(slam, set(np.asarray(fused_ids, dtype=np.int64).tolist()))
         if self.config.merge_probability > 0:
+            for landmark in self.fresh:
+                self.together.setdefault(landmark, set()).update(self.fresh - {landmark})
             result.merged = self._merge(slam)
         if self.config.drop_misses > 0:
             result.dropped = self._drop(slam)
@@ -164,8 +173,11 @@ class LandmarkManager:
         tests = []
         for i in fresh:
             near = np.flatnonzero(np.hypot(*(means - means[i]).T) <= self.config.merge_distance)
+            seen_with = self.together.get(int(slam.ids[i]), set())
             for j in near[near != i].tolist():
-                statistic, _, _ = merge_statistic(slam, i, j)
+                if int(slam.ids[j]) in seen_with:
+                    continue
+                statistic, _, _ = merge_statistic(slam, i, j, self.config.merge_floor)
                 if statistic <= threshold:
                     tests.append((statistic, int(slam.ids[min(i, j)]),
                                   int(slam.ids[max(i, j)])))
@@ -174,10 +186,13 @@ class LandmarkManager:
             if keep in used or remove in used:
                 continue
             i, j = slam.index_of(np.array([keep, remove]))
-            fuse_equal(slam, int(i), int(j))
+            fuse_equal(slam, int(i), int(j), self.config.merge_floor)
             remove_landmarks(slam, np.array([remove]))
             self.sightings[keep] = self.sightings.get(keep, 0) + self.sightings.pop(remove, 0)
             self.misses[keep] = min(self.misses.get(keep, 0), self.misses.pop(remove, 0))
+            for other in self._forget(remove):
+                self.together[other].add(keep)
+                self.together.setdefault(keep, set()).add(other)
             used.update((keep, remove))
             merged.append((remove, keep))
         return merged
@@ -193,4 +208,12 @@ class LandmarkManager:
             for landmark in dropped:
                 self.sightings.pop(landmark, None)
                 self.misses.pop(landmark, None)
+                self._forget(landmark)
         return dropped
+
+    def _forget(self, landmark: int) -> set[int]:
+        """Remove `landmark` from the seen-together record; the landmarks it was seen with."""
+        others = self.together.pop(landmark, set())
+        for other in others:
+            self.together[other].discard(landmark)
+        return others
