@@ -231,3 +231,16 @@ def test_inactive_manager_changes_nothing():
     result = manager.after_scan(slam, [])
     assert result.merged == [] and result.dropped == []
     np.testing.assert_array_equal(slam.mean, mean)
+
+
+def test_seen_together_is_recorded_only_for_pairs_a_merge_could_test():
+    """Landmarks seen on one scan are recorded as a pair only when closer than
+    TOGETHER_RANGE merge distances (2 x 2 m here): the record grows with the neighbourhoods, not
+    with the square of the map."""
+    slam = EkfSlam([0.0, 0.0, 0.0], np.zeros((3, 3)), 'point_robot')
+    slam.add_landmarks(np.array([[5.0, 0.0], [5.0, 3.9], [5.0, -4.1]]),
+                       np.repeat(np.eye(2)[None] * 0.01, 3, axis=0), np.array([0, 1, 2]))
+    manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99, merge_distance=2.0))
+    manager.started([0, 1, 2])
+    assert manager.after_scan(slam, []).merged == []
+    assert manager.together == {0: {1}, 1: {0}}

@@ -10,7 +10,8 @@ H = [.. I .. -I ..]; f = 0: exactly, l_j then equals l_i); l_j is then removed f
 (its rows and columns deleted), the older landmark i stays.  Tested pairs: each landmark fused
 or started since the last call against every other landmark within merge_distance [m]
 (Euclidean pre-filter) that was never fused or started on the same scan as it (one scan sees
-an object once: two landmarks seen together are two objects), the smallest statistic first,
+an object once: two landmarks seen together are two objects; recorded for the pairs closer
+than TOGETHER_RANGE merge distances), the smallest statistic first,
 each landmark merged at most once per call.
 
 Drop.  Each landmark counts its sightings (scans on which it was fused, its start included) and
@@ -31,6 +32,9 @@ from ..gating import chi2_threshold
 from ..models.base import wrap_angle
 from .ekf_slam import LANDMARK, POSE, EkfSlam
 
+TOGETHER_RANGE = 2.0
+"""Pairs seen together are recorded when closer than this many merge distances (a merge tests
+pairs within one)."""
 MERGE_REGULARISATION = 1e-12
 """Added to the diagonal of D before it is inverted [m^2] (two landmarks with identical rows)."""
 
@@ -141,8 +145,7 @@ class LandmarkManager:
         if self.config.drop_misses > 0:
             self._count_misses(slam, set(np.asarray(fused_ids, dtype=np.int64).tolist()))
         if self.config.merge_probability > 0:
-            for landmark in self.fresh:
-                self.together.setdefault(landmark, set()).update(self.fresh - {landmark})
+            self._record_together(slam)
             result.merged = self._merge(slam)
         if self.config.drop_misses > 0:
             result.dropped = self._drop(slam)
@@ -164,6 +167,23 @@ class LandmarkManager:
         for landmark in slam.ids[self._in_view(slam)].tolist():
             if landmark not in fused and landmark not in self.fresh:
                 self.misses[landmark] = self.misses.get(landmark, 0) + 1
+
+    def _record_together(self, slam: EkfSlam) -> None:
+        """The landmarks fused or started since the last call were seen together: each pair of
+        them closer than TOGETHER_RANGE merge distances (the only pairs a merge could test; the
+        record stays as small as the neighbourhoods, not the square of the map)."""
+        ids = np.array(sorted(self.fresh), dtype=np.int64)
+        index = slam.index_of(ids)
+        ids, index = ids[index >= 0], index[index >= 0]
+        if len(ids) < 2:
+            return
+        means = slam.mean[POSE:].reshape(-1, LANDMARK)[index]
+        close = np.hypot(*(means[:, None, :] - means[None, :, :]).transpose(2, 0, 1)) \
+            <= TOGETHER_RANGE * self.config.merge_distance
+        for a, b in zip(*np.nonzero(np.triu(close, 1))):
+            first, second = int(ids[a]), int(ids[b])
+            self.together.setdefault(first, set()).add(second)
+            self.together.setdefault(second, set()).add(first)
 
     def _merge(self, slam: EkfSlam) -> list[tuple[int, int]]:
         threshold = chi2_threshold(self.config.merge_probability, LANDMARK)
