@@ -33,8 +33,9 @@ true_landmarks: beacon row r -> id r + 1.  true_pose: the GPS position and that 
 initial_pose: the true pose at the first odometry sample, with zero covariance (the map is in
 the beacons' frame).
 
-Calibration against that truth (`calibration()`; 586 scans, 910 detections, 588 steps):
-see the constants' docstrings.
+Calibration against that truth (586 scans, 506 with beacons, 892 detections; a scratch script,
+docs/slam.md "The ACFR car park"): range residuals 0.008 +- 0.032 m, bearing residuals
+0.63 +- 0.96 deg; see the constants' docstrings.
 """
 from __future__ import annotations
 
