@@ -38,6 +38,37 @@ def compose_path(start: np.ndarray, increments: np.ndarray) -> np.ndarray:
     return np.array(path)
 
 
+def exact_arcs(times: list, commands: list, queries: list) -> tuple[list, list]:
+    """Independent dead reckoning, a plain loop: exact arcs, sample i's (v, w) of `commands`
+    held from times[i] until times[i + 1] (the last one until the last query), from the zero
+    pose at times[0]; the poses (x, y, yaw unwrapped) and distances travelled at `queries`
+    (sorted, ms)."""
+    x = y = yaw = distance = 0.0
+    poses, travelled, q = [], [], 0
+    for i, (v, w) in enumerate(commands):
+        start = times[i]
+        end = times[i + 1] if i + 1 < len(times) else max(queries[-1], start)
+        while True:
+            stop = min(end, queries[q]) if q < len(queries) else end
+            dt = (stop - start) * 1e-3
+            if abs(w) > 1e-12:
+                x += v / w * (math.sin(yaw + w * dt) - math.sin(yaw))
+                y -= v / w * (math.cos(yaw + w * dt) - math.cos(yaw))
+            else:
+                x += v * dt * math.cos(yaw)
+                y += v * dt * math.sin(yaw)
+            yaw += w * dt
+            distance += abs(v) * dt
+            start = stop
+            if q < len(queries) and stop == queries[q]:
+                poses.append((x, y, yaw))
+                travelled.append(distance)
+                q += 1
+                continue
+            break
+    return poses, travelled
+
+
 def same_pose(a: np.ndarray, b: np.ndarray, atol: float) -> bool:
     d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
     d[..., 2] = wrap(d[..., 2])
@@ -310,30 +341,7 @@ def test_mrclam_increments_reproduce_dead_reckoning(sequences, robot):
     # rows sharing a stamp hold for no time (robot 2 has 9): the last one of a stamp counts
     keep = [i for i in range(len(times)) if i + 1 == len(times) or times[i + 1] != times[i]]
     times, commands = [times[i] for i in keep], [commands[i] for i in keep]
-    # independent dead reckoning: exact arcs, sample i's (v, w) held until sample i+1
-    x = y = yaw = distance = 0.0
-    expected, travelled, scan = [], [], 0
-    for i, (v, w) in enumerate(commands):
-        start = times[i]
-        end = times[i + 1] if i + 1 < len(times) else max(scans[-1], start)
-        while True:
-            stop = min(end, scans[scan]) if scan < len(scans) else end
-            dt = (stop - start) * 1e-3
-            if abs(w) > 1e-12:
-                x += v / w * (math.sin(yaw + w * dt) - math.sin(yaw))
-                y -= v / w * (math.cos(yaw + w * dt) - math.cos(yaw))
-            else:
-                x += v * dt * math.cos(yaw)
-                y += v * dt * math.sin(yaw)
-            yaw += w * dt
-            distance += abs(v) * dt
-            start = stop
-            if scan < len(scans) and stop == scans[scan]:
-                expected.append((x, y, yaw))
-                travelled.append(distance)
-                scan += 1
-                continue
-            break
+    expected, travelled = exact_arcs(times, commands, scans)
     assert len(expected) == len(scans)
     path = compose_path(sequence.initial_pose, [step.increment for step in sequence.steps])
     assert same_pose(path[1:], np.array(expected), 1e-6)
@@ -467,31 +475,14 @@ def test_acfr_increments_reproduce_the_car_model(sequences):
     sequence = sequences('acfr_car_park')
     times = [int(round(t * 1000)) for t in data['Time_VS'][0]]
     length, offset = 2.83, 0.76
-    x = y = yaw = 0.0
-    laser, scans = [], [step.time_ns // 1_000_000 for step in sequence.steps]
-    queries = [times[0]] + scans
-    q = 0
-    for i, (v, s) in enumerate(zip(data['Velocity'][0], data['Steering'][0])):
+    commands = []
+    for v, s in zip(data['Velocity'][0], data['Steering'][0]):
         v_c = v / (1 - math.tan(s) * offset / length)
-        w = v_c * math.tan(s) / length
-        start, end = times[i], times[i + 1] if i + 1 < len(times) else queries[-1]
-        while True:
-            stop = min(end, queries[q]) if q < len(queries) else end
-            dt = (stop - start) * 1e-3
-            if abs(w) > 1e-12:
-                x += v_c / w * (math.sin(yaw + w * dt) - math.sin(yaw))
-                y -= v_c / w * (math.cos(yaw + w * dt) - math.cos(yaw))
-            else:
-                x += v_c * dt * math.cos(yaw)
-                y += v_c * dt * math.sin(yaw)
-            yaw += w * dt
-            start = stop
-            if q < len(queries) and stop == queries[q]:
-                c, sn = math.cos(yaw), math.sin(yaw)
-                laser.append((x + 3.78 * c - 0.5 * sn, y + 3.78 * sn + 0.5 * c, yaw))
-                q += 1
-                continue
-            break
+        commands.append((v_c, v_c * math.tan(s) / length))
+    queries = [times[0]] + [step.time_ns // 1_000_000 for step in sequence.steps]
+    axle, _ = exact_arcs(times, commands, queries)
+    laser = [(x + 3.78 * math.cos(yaw) - 0.5 * math.sin(yaw),
+              y + 3.78 * math.sin(yaw) + 0.5 * math.cos(yaw), yaw) for x, y, yaw in axle]
     assert len(laser) == len(queries)
     path = compose_path(sequence.initial_pose, [step.increment for step in sequence.steps])
     for k in range(1, len(laser)):

@@ -44,8 +44,10 @@ from pathlib import Path
 import numpy as np
 from scipy.io import loadmat
 
+from ...core.models.base import wrap_angle
 from ...core.multi_hypothesis.motion import between, compose
-from .dead_reckoning import integrate_hold, milliseconds
+from ...core.transforms import estimate_rigid_transform
+from .dead_reckoning import increment_covariances, integrate_hold, milliseconds
 from .sequence import CLUTTER, COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'acfr_car_park'
@@ -97,14 +99,6 @@ def beacon_detections(ranges: np.ndarray, intensities: np.ndarray) -> np.ndarray
                      for run in np.split(np.arange(len(beams)), breaks)])
 
 
-def _rigid_rotation(source: np.ndarray, target: np.ndarray) -> float:
-    """The angle [rad] of the rotation of the least-squares rigid fit of points source (M, 2)
-    onto target (M, 2) (Kabsch, 2-D)."""
-    a, b = source - source.mean(axis=0), target - target.mean(axis=0)
-    return float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
-                            np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])))
-
-
 def _laser_path(data: dict, query_ms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The laser's dead-reckoned poses (M, 3) at query_ms in the frame of the rear axle at the
     first odometry sample, and the travelled distance and turned angle (M,) up to them."""
@@ -116,20 +110,22 @@ def _laser_path(data: dict, query_ms: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return compose(axle, np.array([LASER_FORWARD, LASER_LEFT, 0.0])), distance, rotation
 
 
-def _true_poses(data: dict, query_ms: np.ndarray) -> np.ndarray:
-    """The laser's true poses (M, 3) at query_ms: GPS position, odometry heading turned by the
-    rigid fit to the GPS fixes within HEADING_WINDOW travelled (module docstring)."""
+def _true_poses(data: dict, query_ms: np.ndarray, at_query: np.ndarray,
+                travelled: np.ndarray) -> np.ndarray:
+    """The laser's true poses (M, 3) at query_ms, given its dead-reckoned poses (M, 3) and
+    travelled distances (M,) there (_laser_path): GPS position, odometry heading turned by the
+    rigid fit (Kabsch) of the odometry path to the GPS fixes within HEADING_WINDOW travelled
+    (module docstring)."""
     gps_ms = milliseconds(data['TimeGPS'].ravel())
     gps = np.column_stack([data['GPSLon'].ravel(), data['GPSLat'].ravel()])
     at_gps, travelled_gps, _ = _laser_path(data, gps_ms)
-    at_query, travelled, _ = _laser_path(data, query_ms)
     poses = np.empty((len(query_ms), 3))
     poses[:, 0] = np.interp(query_ms, gps_ms, gps[:, 0])
     poses[:, 1] = np.interp(query_ms, gps_ms, gps[:, 1])
     for k in range(len(query_ms)):
         near = np.abs(travelled_gps - travelled[k]) <= HEADING_WINDOW
-        poses[k, 2] = at_query[k, 2] + _rigid_rotation(at_gps[near, :2], gps[near])
-    poses[:, 2] = np.arctan2(np.sin(poses[:, 2]), np.cos(poses[:, 2]))
+        poses[k, 2] = at_query[k, 2] + estimate_rigid_transform(at_gps[near, :2], gps[near]).yaw
+    poses[:, 2] = wrap_angle(poses[:, 2])
     return poses
 
 
@@ -145,16 +141,6 @@ def _label(detections: np.ndarray, pose: np.ndarray,
     truth = np.where(gap <= CLUTTER_RADIUS, nearest + 1, CLUTTER)
     certain = (gap <= CERTAIN_RADIUS) | (gap > CLUTTER_RADIUS)
     return truth, certain, gap
-
-
-def _increment_covariances(distance: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """(M, 3, 3) diagonal increment covariances for steps of distance (M,) [m] and absolute
-    rotation (M,) [rad]: var_x = var_y = POSITION_FLOOR + POSITION_PER_METRE d, var_yaw =
-    YAW_FLOOR + YAW_PER_RADIAN a + YAW_PER_METRE d."""
-    covariances = np.zeros((len(distance), 3, 3))
-    covariances[:, 0, 0] = covariances[:, 1, 1] = POSITION_FLOOR + POSITION_PER_METRE * distance
-    covariances[:, 2, 2] = YAW_FLOOR + YAW_PER_RADIAN * rotation + YAW_PER_METRE * distance
-    return covariances
 
 
 def _read(data_directory: Path) -> tuple[dict, np.ndarray]:
@@ -173,11 +159,13 @@ def load(data_directory: Path) -> SlamSequence:
     seen = np.array([len(found) > 0 for found in detections])
     scan_ms = scan_ms[seen]
     detections = [found for found, kept in zip(detections, seen) if kept]
-    start_ms = milliseconds(data['Time_VS'].ravel()[:1])
-    poses, distance, rotation = _laser_path(data, np.concatenate([start_ms, scan_ms]))
+    query_ms = np.concatenate([milliseconds(data['Time_VS'].ravel()[:1]), scan_ms])
+    poses, distance, rotation = _laser_path(data, query_ms)
     increments = between(poses[:-1], poses[1:])
-    covariances = _increment_covariances(np.diff(distance), np.diff(rotation))
-    true_poses = _true_poses(data, np.concatenate([start_ms, scan_ms]))
+    covariances = increment_covariances(np.diff(distance), np.diff(rotation), POSITION_FLOOR,
+                                        POSITION_PER_METRE, YAW_FLOOR, YAW_PER_RADIAN,
+                                        YAW_PER_METRE)
+    true_poses = _true_poses(data, query_ms, poses, distance)
     measurement_covariance = np.diag([SIGMA_RANGE, SIGMA_BEARING]) ** 2
     steps = []
     for k, (stamp, found) in enumerate(zip(scan_ms, detections)):

@@ -1,4 +1,5 @@
-"""Dead reckoning of sampled (v, w) odometry, shared by the converters (mrclam, acfr_car_park)."""
+"""Dead reckoning of sampled (v, w) odometry and its increment covariances, shared by the
+converters (mrclam, acfr_car_park)."""
 from __future__ import annotations
 
 import numpy as np
@@ -32,3 +33,16 @@ def integrate_hold(odometry_ms: np.ndarray, v: np.ndarray, w: np.ndarray,
     rotation = np.concatenate([[0.0], np.cumsum(np.abs(turn))])
     at = np.searchsorted(grid, query_ms)
     return np.column_stack([x[at], y[at], heading[at]]), distance[at], rotation[at]
+
+
+def increment_covariances(distance: np.ndarray, rotation: np.ndarray, position_floor: float,
+                          position_per_metre: float, yaw_floor: float, yaw_per_radian: float,
+                          yaw_per_metre: float) -> np.ndarray:
+    """(M, 3, 3) diagonal increment covariances for steps of distance d (M,) [m] and absolute
+    rotation a (M,) [rad]: var_x = var_y = position_floor + position_per_metre d [m^2],
+    var_yaw = yaw_floor + yaw_per_radian a + yaw_per_metre d [rad^2] (a random walk in distance
+    and rotation)."""
+    covariances = np.zeros((len(distance), 3, 3))
+    covariances[:, 0, 0] = covariances[:, 1, 1] = position_floor + position_per_metre * distance
+    covariances[:, 2, 2] = yaw_floor + yaw_per_radian * rotation + yaw_per_metre * distance
+    return covariances

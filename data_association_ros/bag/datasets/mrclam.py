@@ -61,7 +61,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.multi_hypothesis.motion import between
-from .dead_reckoning import integrate_hold, milliseconds
+from .dead_reckoning import increment_covariances, integrate_hold, milliseconds
 from .sequence import CLUTTER, COURSE_SIGNIFICANCE, SlamSequence, SlamStep
 
 FOLDER = 'utias_mrclam_ds1_robot1'
@@ -93,12 +93,9 @@ robots, which stand still for minutes and then move away.  On robot 1's first 15
 
 
 def _increment_covariances(distance: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """(M, 3, 3) diagonal increment covariances for steps of distance (M,) [m] and absolute
-    rotation (M,) [rad] (the model in the module docstring)."""
-    covariances = np.zeros((len(distance), 3, 3))
-    covariances[:, 0, 0] = covariances[:, 1, 1] = POSITION_FLOOR + POSITION_PER_METRE * distance
-    covariances[:, 2, 2] = YAW_FLOOR + YAW_PER_RADIAN * rotation + YAW_PER_METRE * distance
-    return covariances
+    """(M, 3, 3) increment covariances of the model in the module docstring."""
+    return increment_covariances(distance, rotation, POSITION_FLOOR, POSITION_PER_METRE,
+                                 YAW_FLOOR, YAW_PER_RADIAN, YAW_PER_METRE)
 
 
 def load(data_directory: Path, robot: int = 1) -> SlamSequence:
