@@ -244,3 +244,26 @@ def test_seen_together_is_recorded_only_for_pairs_a_merge_could_test():
     manager.started([0, 1, 2])
     assert manager.after_scan(slam, []).merged == []
     assert manager.together == {0: {1}, 1: {0}}
+
+
+def test_a_landmark_started_after_its_scan_is_seen_with_that_scan_only():
+    """Live, a scan's new landmarks may arrive after the manager's call for it.  Landmark 2,
+    started late from scan 1 at 0.05 m from landmark 3 (seen on scan 0 only), is a duplicate
+    of 3: when scan 2 fuses 3, 2 is merged into it (it was never on a scan with 3), and 2 is
+    recorded with landmark 0 of its own scan, not with 3 of the next."""
+    slam = EkfSlam([0.0, 0.0, 0.0], np.zeros((3, 3)), 'point_robot')
+    noise = np.eye(2)[None] * 0.01
+    manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
+    slam.add_landmarks(np.array([[5.0, 0.0]]), noise, np.array([3]))
+    manager.started([3], scan=0)
+    assert manager.after_scan(slam, [], scan=0).merged == []
+    slam.add_landmarks(np.array([[5.0, 3.0]]), noise, np.array([0]))
+    manager.started([0], scan=1)
+    assert manager.after_scan(slam, [], scan=1).merged == []
+    slam.add_landmarks(np.array([[5.0, 0.05]]), noise, np.array([2]))
+    manager.started([2], scan=1)            # after scan 1's call
+    manager.fused([3], scan=2)
+    assert manager.after_scan(slam, [3], scan=2).merged == [(2, 3)]
+    np.testing.assert_array_equal(slam.ids, [3, 0])
+    assert manager.together == {0: {3}, 3: {0}}    # 2's record (with 0) passed on to 3
+    assert manager.seen_on == {2: {3}}

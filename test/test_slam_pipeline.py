@@ -250,3 +250,37 @@ def test_odometry_yaw_noise_scale_multiplies_the_heading_variance_only():
     assert scaled[2, 2] == pytest.approx(32.0 * noise[2, 2])
     assert scaled[0, 0] == pytest.approx(2.0 * noise[0, 0])
     assert np.all(np.linalg.eigvalsh(scaled) > 0)
+
+
+def test_new_landmarks_after_the_answer_are_seen_with_their_own_scan_only(ttk_steps):
+    """Live, a scan's new_landmarks may arrive after its correspondences, i.e. after the
+    landmark manager's call for that scan: the landmarks started from it count as seen with
+    that scan's landmarks, never with the next scan's (which would keep a true duplicate from
+    ever being merged).  Merging on with a probability so small that nothing merges and a merge
+    distance that records every pair: the record is exactly the pairs of one scan's fused or
+    started landmarks (the last scan's late ones are recorded at the next call)."""
+    origin, steps = ttk_steps
+    slam = SlamPipeline(slam_config('node', {'merge_probability': 1e-9, 'merge_distance': 500.0}))
+    association = AssociationPipeline(node_config('mahalanobis_nn', {}))
+    slam.on_odometry(origin)
+    seen, late = [], 0
+    for odometry, scan, _ in steps:
+        slam.on_odometry(odometry)
+        answer = answer_with(association, slam.on_scan(scan))
+        before = set(slam.slam.ids.tolist())
+        slam.on_correspondences(answer.correspondences)
+        assert set(slam.slam.ids.tolist()) == before       # nothing started before its news
+        if answer.new_landmarks is not None:
+            slam.on_new_landmarks(answer.new_landmarks)
+        fused = {int(i) for i in cloud_to_array(answer.correspondences)['landmark']
+                 if i in before}
+        started = set(slam.slam.ids.tolist()) - before
+        late += bool(started)
+        seen.append(fused | started)
+        # kept under the scan's stamp for its late landmarks, recorded at the next call
+        assert slam.manager.seen_on == {stamp_ns(scan.header): fused | started}
+    assert late >= 5 and slam.statistics.dropped['landmarks_merged'] == 0
+    recorded = {(a, b) for a, others in slam.manager.together.items() for b in others if a < b}
+    expected = {(a, b) for group in seen[:-1] for a in group for b in group if a < b}
+    last = {(a, b) for a in seen[-1] for b in seen[-1] if a < b}
+    assert expected and expected <= recorded <= expected | last

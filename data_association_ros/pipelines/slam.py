@@ -392,7 +392,7 @@ class SlamPipeline:
         if self.config['association_source'] != 'node' or not self.manager.active:
             return
         self.manager.config = self._management_config()
-        result = self.manager.after_scan(self.slam, fused_ids)
+        result = self.manager.after_scan(self.slam, fused_ids, self.current.stamp)
         self.statistics.dropped['landmarks_merged'] += len(result.merged)
         self.statistics.dropped['landmarks_dropped'] += len(result.dropped)
 
@@ -449,7 +449,7 @@ class SlamPipeline:
         except (np.linalg.LinAlgError, InvalidInputError, ValueError) as error:
             return self._invalid('update', error)   # e.g. S not positive definite
         self.last_update = (current.stamp, nis, 2 * len(use))
-        self.manager.fused(assignment[use])
+        self.manager.fused(assignment[use], current.stamp)
         self.statistics.updates += 1
         self.statistics.fused_observations += len(use)
         current.updated = True
@@ -466,7 +466,7 @@ class SlamPipeline:
 
     def _add(self, values, covariances, ids, observations) -> None:
         self.slam.add_landmarks(values, covariances, ids)
-        self.manager.started(ids)
+        self.manager.started(ids, self.current.stamp)
         for landmark, index in zip(ids.tolist(), observations.tolist()):
             self.origins[landmark] = (self.current.stamp, index)
         self.statistics.landmarks_added += len(ids)
@@ -533,7 +533,7 @@ class SlamPipeline:
         slam.covariance = grown
         slam.mean = np.concatenate([slam.mean, mean])
         slam.ids = np.append(slam.ids, self.next_id)
-        self.manager.started([self.next_id])
+        self.manager.started([self.next_id], origin[0])
         self.origins[self.next_id] = origin
         self.next_id += 1
 

@@ -26,6 +26,7 @@ The state is the EkfSlam's (mean, covariance, ids); removal keeps the order of t
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Hashable, Optional
 
 import numpy as np
 from ..gating import chi2_threshold
@@ -114,33 +115,42 @@ class LandmarkManager:
         self.sightings: dict[int, int] = {}
         self.misses: dict[int, int] = {}
         self.fresh: set[int] = set()     # fused or started since the last call
+        self.seen_on: dict[Optional[Hashable], set[int]] = {}   # scan -> its fused or started
         self.together: dict[int, set[int]] = {}   # landmarks fused or started on one scan
 
     @property
     def active(self) -> bool:
         return self.config.merge_probability > 0 or self.config.drop_misses > 0
 
-    def started(self, ids) -> None:
-        """Landmarks just added to the map (one sighting each)."""
+    def started(self, ids, scan: Optional[Hashable] = None) -> None:
+        """Landmarks just added to the map (one sighting each) from observations of `scan`
+        (a key, e.g. its stamp; None: the scan of the next after_scan)."""
         for landmark in np.asarray(ids, dtype=np.int64).reshape(-1).tolist():
             self.sightings[landmark] = 1
             self.misses[landmark] = 0
-            self.fresh.add(landmark)
+            self._seen(landmark, scan)
 
-    def fused(self, ids) -> None:
-        """Landmarks fused in this scan's update."""
+    def fused(self, ids, scan: Optional[Hashable] = None) -> None:
+        """Landmarks fused in the update of `scan` (as for `started`)."""
         for landmark in np.asarray(ids, dtype=np.int64).reshape(-1).tolist():
             self.sightings[landmark] = self.sightings.get(landmark, 0) + 1
             self.misses[landmark] = 0
-            self.fresh.add(landmark)
+            self._seen(landmark, scan)
 
-    def after_scan(self, slam: EkfSlam, fused_ids) -> ManagementResult:
+    def _seen(self, landmark: int, scan: Optional[Hashable]) -> None:
+        self.fresh.add(landmark)
+        self.seen_on.setdefault(scan, set()).add(landmark)
+
+    def after_scan(self, slam: EkfSlam, fused_ids,
+                   scan: Optional[Hashable] = None) -> ManagementResult:
         """Count misses of the landmarks in view not in `fused_ids`, then merge and drop (the
         module doc); returns what was removed.  Call once per scan, after its update and its new
-        landmarks."""
+        landmarks; `scan`: its key (None: every landmark since the last call was seen on it).
+        The landmarks of one scan are recorded as seen together, also those started from it
+        after this call (new landmarks that arrive after its answer: at the next call)."""
         result = ManagementResult()
         if not self.active or len(slam.ids) == 0:
-            self.fresh.clear()
+            self._next_scan(scan)
             return result
         if self.config.drop_misses > 0:
             self._count_misses(slam, set(np.asarray(fused_ids, dtype=np.int64).tolist()))
@@ -149,8 +159,14 @@ class LandmarkManager:
             result.merged = self._merge(slam)
         if self.config.drop_misses > 0:
             result.dropped = self._drop(slam)
-        self.fresh.clear()
+        self._next_scan(scan)
         return result
+
+    def _next_scan(self, scan: Optional[Hashable]) -> None:
+        """Forget what was fresh; keep the landmarks of `scan` (not None) for its late ones."""
+        self.fresh.clear()
+        kept = self.seen_on.get(scan) if scan is not None else None
+        self.seen_on = {} if kept is None else {scan: kept}
 
     def _in_view(self, slam: EkfSlam) -> np.ndarray:
         """(N,) landmarks whose mean is in the sensor's view from the posterior pose."""
@@ -169,10 +185,14 @@ class LandmarkManager:
                 self.misses[landmark] = self.misses.get(landmark, 0) + 1
 
     def _record_together(self, slam: EkfSlam) -> None:
-        """The landmarks fused or started since the last call were seen together: each pair of
-        them closer than TOGETHER_RANGE merge distances (the only pairs a merge could test; the
+        """The landmarks fused or started from one scan were seen together: each pair of them
+        closer than TOGETHER_RANGE merge distances (the only pairs a merge could test; the
         record stays as small as the neighbourhoods, not the square of the map)."""
-        ids = np.array(sorted(self.fresh), dtype=np.int64)
+        for landmarks in self.seen_on.values():
+            self._record_pairs(slam, landmarks)
+
+    def _record_pairs(self, slam: EkfSlam, landmarks: set[int]) -> None:
+        ids = np.array(sorted(landmarks), dtype=np.int64)
         index = slam.index_of(ids)
         ids, index = ids[index >= 0], index[index >= 0]
         if len(ids) < 2:
