@@ -267,3 +267,21 @@ def test_a_landmark_started_after_its_scan_is_seen_with_that_scan_only():
     np.testing.assert_array_equal(slam.ids, [3, 0])
     assert manager.together == {0: {3}, 3: {0}}    # 2's record (with 0) passed on to 3
     assert manager.seen_on == {2: {3}}
+
+
+def test_a_dropped_landmark_leaves_the_seen_together_record():
+    """Landmarks 0 and 2 started on one scan (1.4 m apart: recorded); 0 is never seen again and
+    dropped after 2 misses: the record keeps no trace of it (2's entry is empty)."""
+    slam = EkfSlam([0.0, 0.0, 0.0], np.eye(3) * 1e-4, 'point_robot')
+    slam.add_landmarks(np.array([[3.0, 0.5], [4.0, -0.5]]),
+                       np.repeat(np.eye(2)[None] * 0.01, 2, axis=0), np.array([0, 2]))
+    manager = LandmarkManager(LandmarkManagementConfig(
+        merge_probability=0.99, drop_misses=2, view_range=10.0, view_half_angle=np.pi / 6))
+    manager.started([0, 2], scan=0)
+    assert manager.after_scan(slam, [], scan=0).dropped == []
+    assert manager.together == {0: {2}, 2: {0}}
+    manager.fused([2], scan=1)
+    assert manager.after_scan(slam, [2], scan=1).dropped == []
+    manager.fused([2], scan=2)
+    assert manager.after_scan(slam, [2], scan=2).dropped == [0]
+    assert manager.together == {2: set()}
