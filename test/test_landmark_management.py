@@ -285,3 +285,29 @@ def test_a_dropped_landmark_leaves_the_seen_together_record():
     manager.fused([2], scan=2)
     assert manager.after_scan(slam, [2], scan=2).dropped == [0]
     assert manager.together == {2: set()}
+
+
+def test_a_merge_passes_the_scan_record_to_the_kept_landmark():
+    """Landmark 1 (scan 1) is merged into 0; landmark 2 then starts late from scan 1 at 0.07 m
+    from 0: it was on scan 1 with 1, now 0, so it is not merged into 0, as when it comes on
+    time (the order of messages does not change the map)."""
+    outcomes = []
+    for late in (False, True):
+        slam = EkfSlam([0.0, 0.0, 0.0], np.zeros((3, 3)), 'point_robot')
+        noise = np.eye(2)[None] * 0.01
+        manager = LandmarkManager(LandmarkManagementConfig(merge_probability=0.99))
+        slam.add_landmarks(np.array([[5.0, 0.0]]), noise, np.array([0]))
+        manager.started([0], scan=0)
+        manager.after_scan(slam, [], scan=0)
+        slam.add_landmarks(np.array([[5.0, 0.02]]), noise, np.array([1]))
+        manager.started([1], scan=1)
+        if not late:
+            slam.add_landmarks(np.array([[5.0, 0.07]]), noise, np.array([2]))
+            manager.started([2], scan=1)
+        merged = manager.after_scan(slam, [], scan=1).merged
+        if late:
+            slam.add_landmarks(np.array([[5.0, 0.07]]), noise, np.array([2]))
+            manager.started([2], scan=1)
+        merged += manager.after_scan(slam, [], scan=2).merged
+        outcomes.append((merged, slam.ids.tolist(), manager.together))
+    assert outcomes[0] == outcomes[1] == ([(1, 0)], [0, 2], {0: {2}, 2: {0}})

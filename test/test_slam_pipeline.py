@@ -258,29 +258,57 @@ def test_new_landmarks_after_the_answer_are_seen_with_their_own_scan_only(ttk_st
     that scan's landmarks, never with the next scan's (which would keep a true duplicate from
     ever being merged).  Merging on with a probability so small that nothing merges and a merge
     distance that records every pair: the record is exactly the pairs of one scan's fused or
-    started landmarks (the last scan's late ones are recorded at the next call)."""
+    started landmarks (the last scan's late ones are recorded at the next call).  Every other
+    scan's answer is scripted to leave the previous scan's landmarks unassociated, so that the
+    next scan sees landmarks its predecessor did not (ttk's robot sees every landmark on every
+    scan): recording late landmarks with the next scan's would show as extra pairs."""
     origin, steps = ttk_steps
     slam = SlamPipeline(slam_config('node', {'merge_probability': 1e-9, 'merge_distance': 500.0}))
     association = AssociationPipeline(node_config('mahalanobis_nn', {}))
     slam.on_odometry(origin)
-    seen, late = [], 0
-    for odometry, scan, _ in steps:
+    seen, late, crossings = [], 0, 0
+    for step, (odometry, scan, _) in enumerate(steps):
         slam.on_odometry(odometry)
         answer = answer_with(association, slam.on_scan(scan))
         before = set(slam.slam.ids.tolist())
-        slam.on_correspondences(answer.correspondences)
+        points = cloud_to_array(answer.correspondences)
+        if step % 2 and seen:
+            points['landmark'][np.isin(points['landmark'], list(seen[-1]))] = -2
+        slam.on_correspondences(array_to_cloud(points, answer.correspondences.header))
         assert set(slam.slam.ids.tolist()) == before       # nothing started before its news
         if answer.new_landmarks is not None:
             slam.on_new_landmarks(answer.new_landmarks)
-        fused = {int(i) for i in cloud_to_array(answer.correspondences)['landmark']
-                 if i in before}
+        fused = {int(i) for i in points['landmark'] if i in before}
         started = set(slam.slam.ids.tolist()) - before
         late += bool(started)
+        if len(seen) >= 1:      # pairs the old record made: the last scan's late, these fused
+            crossings += len({(a, b) for a in seen[-1] - fused for b in fused - seen[-1]})
         seen.append(fused | started)
         # kept under the scan's stamp for its late landmarks, recorded at the next call
-        assert slam.manager.seen_on == {stamp_ns(scan.header): fused | started}
-    assert late >= 5 and slam.statistics.dropped['landmarks_merged'] == 0
+        stamp = stamp_ns(scan.header)
+        assert set(slam.manager.seen_on) <= {stamp}
+        assert slam.manager.seen_on.get(stamp, set()) == fused | started
+    assert late >= 5 and crossings > 0 and slam.statistics.dropped['landmarks_merged'] == 0
     recorded = {(a, b) for a, others in slam.manager.together.items() for b in others if a < b}
-    expected = {(a, b) for group in seen[:-1] for a in group for b in group if a < b}
-    last = {(a, b) for a in seen[-1] for b in seen[-1] if a < b}
+    expected = {(min(a, b), max(a, b)) for group in seen[:-1] for a in group for b in group
+                if a != b}
+    last = {(min(a, b), max(a, b)) for a in seen[-1] for b in seen[-1] if a != b}
     assert expected and expected <= recorded <= expected | last
+
+
+@pytest.mark.parametrize('mode', ['node', 'ground_truth'])
+def test_the_scan_record_stays_one_scan_long_and_merging_can_be_switched_on(ttk_steps, mode):
+    """With the landmark manager off (the default) and in oracle mode the per-scan record keeps
+    one scan, not one per scan of the run; merging switched on at run time takes effect (the
+    record of pairs starts)."""
+    origin, steps = ttk_steps
+    *_, slam = run_in_order(steps[:10], ('odometry', 'scan', 'new', 'answer'), origin, mode)
+    assert len(slam.manager.seen_on) <= 1 and not slam.manager.together
+    if mode == 'node':
+        slam.config.update(merge_probability=1e-9, merge_distance=500.0)
+        odometry, scan, _ = steps[10]
+        association = AssociationPipeline(node_config('mahalanobis_nn', {}))
+        slam.on_odometry(odometry)
+        answer = answer_with(association, slam.on_scan(scan))
+        slam.on_correspondences(answer.correspondences)
+        assert slam.manager.active and slam.manager.together

@@ -389,9 +389,10 @@ class SlamPipeline:
     def _manage_landmarks(self, fused_ids: np.ndarray) -> None:
         """Closed loop: merge duplicates and drop never-seen landmarks after a scan's update
         (core/slam/landmark_management.py; counted in statistics)."""
+        self.manager.config = self._management_config()   # parameters set at run time
         if self.config['association_source'] != 'node' or not self.manager.active:
+            self.manager.next_scan(self.current.stamp)     # nothing managed: the record moves on
             return
-        self.manager.config = self._management_config()
         result = self.manager.after_scan(self.slam, fused_ids, self.current.stamp)
         self.statistics.dropped['landmarks_merged'] += len(result.merged)
         self.statistics.dropped['landmarks_dropped'] += len(result.dropped)

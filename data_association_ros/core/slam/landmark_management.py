@@ -150,7 +150,7 @@ class LandmarkManager:
         after this call (new landmarks that arrive after its answer: at the next call)."""
         result = ManagementResult()
         if not self.active or len(slam.ids) == 0:
-            self._next_scan(scan)
+            self.next_scan(scan)
             return result
         if self.config.drop_misses > 0:
             self._count_misses(slam, set(np.asarray(fused_ids, dtype=np.int64).tolist()))
@@ -159,11 +159,12 @@ class LandmarkManager:
             result.merged = self._merge(slam)
         if self.config.drop_misses > 0:
             result.dropped = self._drop(slam)
-        self._next_scan(scan)
+        self.next_scan(scan)
         return result
 
-    def _next_scan(self, scan: Optional[Hashable]) -> None:
-        """Forget what was fresh; keep the landmarks of `scan` (not None) for its late ones."""
+    def next_scan(self, scan: Optional[Hashable] = None) -> None:
+        """Forget what was fresh; keep the landmarks of `scan` (not None) for its late ones
+        (after_scan does this; call it for a scan that is not managed)."""
         self.fresh.clear()
         kept = self.seen_on.get(scan) if scan is not None else None
         self.seen_on = {} if kept is None else {scan: kept}
@@ -233,6 +234,10 @@ class LandmarkManager:
             for other in self._forget(remove):
                 self.together[other].add(keep)
                 self.together.setdefault(keep, set()).add(other)
+            for landmarks in self.seen_on.values():   # keep was on remove's scans
+                if remove in landmarks:
+                    landmarks.discard(remove)
+                    landmarks.add(keep)
             used.update((keep, remove))
             merged.append((remove, keep))
         return merged
