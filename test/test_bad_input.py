@@ -10,6 +10,8 @@ from hypothesis.extra import numpy as hnp
 
 from data_association_ros import (InvalidInputError, Landmarks, Observations, RobotPose,
                                   associate, available_algorithms)
+from data_association_ros.core import jit
+from data_association_ros.core.validation import check_spd
 
 EYE3 = np.tile(np.eye(2), (3, 1, 1))
 
@@ -144,3 +146,16 @@ def test_any_python_values_raise_only_invalid_input(ids, means, landmark_cov, va
     except InvalidInputError:
         return
     assert len(result.assignment) == len(result.nis)
+
+
+def test_a_singular_covariance_of_huge_entries_is_rejected_compiled_or_not():
+    """[[1e308, 1e308], [1e308, 1e308]] is singular: its eigenvalue test must not overflow
+    (a + c = inf made it pass before), in numpy's check and in the compiled one alike."""
+    singular = np.full((1, 2, 2), 1e308)
+    with pytest.raises(InvalidInputError, match='not positive definite'):
+        check_spd(singular, 'covariances')
+    for compiled in (True, False):
+        with jit.compiled(compiled):
+            with pytest.raises(InvalidInputError, match='not positive definite'):
+                Observations(np.array([[1.0, 0.0]]), singular, 'range_bearing')
+    check_spd(np.array([[[1e308, 0.0], [0.0, 1e308]]]), 'covariances')   # huge but definite

@@ -271,13 +271,15 @@ def is_covariance_matrix(matrix):
 def _is_spd_2x2(a, b, b_t, c):
     """True when [[a, b], [b_t, c]] is finite, symmetric within 1e-9 and has its smaller
     eigenvalue (a + c) / 2 - hypot((a - c) / 2, b) above 1e-12, both relative to 1 + max |entry|
-    (validation.check_spd's tests)."""
+    (validation.check_spd's tests; the eigenvalue of the matrix divided by that scale, so that
+    no sum overflows)."""
     if not (np.isfinite(a) and np.isfinite(b) and np.isfinite(b_t) and np.isfinite(c)):
         return False
     scale = 1.0 + max(max(abs(a), abs(b)), max(abs(b_t), abs(c)))
     if abs(b - b_t) > 1e-9 * scale:
         return False
-    return 0.5 * (a + c) - np.hypot(0.5 * (a - c), b) > 1e-12 * scale
+    a, b, c = a / scale, b / scale, c / scale
+    return 0.5 * (a + c) - np.hypot(0.5 * (a - c), b) > 1e-12
 
 
 @njit

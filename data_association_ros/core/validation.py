@@ -51,15 +51,17 @@ def check_spd(matrices: np.ndarray, field: str) -> None:
     bad = np.flatnonzero(asym > 1e-9 * scale)
     if bad.size:
         raise InvalidInputError(f'{field}[{bad[0]}]: not symmetric')
+    unit = matrices / scale[..., None, None]   # entries within [-1, 1]: no overflow below
     if matrices.shape[-1] == 2:     # closed form: many small matrices, no LAPACK call each
-        a, b, c = matrices[:, 0, 0], matrices[:, 0, 1], matrices[:, 1, 1]
+        a, b, c = unit[:, 0, 0], unit[:, 0, 1], unit[:, 1, 1]
         smallest = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b)
     else:
-        smallest = np.linalg.eigvalsh(matrices)[..., 0]
-    bad = np.flatnonzero(smallest <= 1e-12 * scale)
+        smallest = np.linalg.eigvalsh(unit)[..., 0]
+    bad = np.flatnonzero(smallest <= 1e-12)
     if bad.size:
         raise InvalidInputError(
-            f'{field}[{bad[0]}]: not positive definite (smallest eigenvalue {smallest[bad[0]]:.3g})')
+            f'{field}[{bad[0]}]: not positive definite (smallest eigenvalue '
+            f'{smallest[bad[0]] * scale[bad[0]]:.3g})')
 
 
 _CHECKED: 'weakref.WeakValueDictionary[int, np.ndarray]' = weakref.WeakValueDictionary()
