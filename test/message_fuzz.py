@@ -116,7 +116,8 @@ def covariance_clouds(draw) -> PointCloud2:
     n = 3 + 2 * landmarks
     values = np.array(draw(st.lists(NUMBERS, min_size=n * n, max_size=n * n))).reshape(n, n)
     if draw(st.booleans()):
-        values = values @ values.T     # symmetric PSD (or overflowing to inf)
+        with np.errstate(over='ignore', invalid='ignore'):
+            values = values @ values.T     # symmetric PSD (or overflowing to inf, on purpose)
     ids = np.array(draw(st.lists(st.integers(-3, 5), min_size=landmarks, max_size=landmarks)),
                    dtype=np.int64)
     msg = state_covariance_cloud(Header(), ids, np.nan_to_num(values) if draw(st.booleans())
