@@ -25,8 +25,9 @@ The state is the EkfSlam's (mean, covariance, ids); removal keeps the order of t
 """
 from __future__ import annotations
 
+from collections.abc import Hashable
 from dataclasses import dataclass, field
-from typing import Hashable, Optional
+from typing import Optional
 
 import numpy as np
 from ..gating import chi2_threshold
