@@ -11,7 +11,7 @@ from hypothesis.extra import numpy as hnp
 from data_association_ros import (InvalidInputError, Landmarks, Observations, RobotPose,
                                   associate, available_algorithms)
 from data_association_ros.core import jit
-from data_association_ros.core.validation import check_spd
+from data_association_ros.core.validation import check_covariance_matrix, check_spd
 
 EYE3 = np.tile(np.eye(2), (3, 1, 1))
 
@@ -159,3 +159,13 @@ def test_a_singular_covariance_of_huge_entries_is_rejected_compiled_or_not():
             with pytest.raises(InvalidInputError, match='not positive definite'):
                 Observations(np.array([[1.0, 0.0]]), singular, 'range_bearing')
     check_spd(np.array([[[1e308, 0.0], [0.0, 1e308]]]), 'covariances')   # huge but definite
+
+
+@pytest.mark.filterwarnings('error::RuntimeWarning')
+def test_an_asymmetric_matrix_of_opposite_huge_entries_is_rejected_without_overflow():
+    """1e308 against -1e308: their difference overflows to inf, which is asymmetry, reported
+    as such (no RuntimeWarning), compiled or not."""
+    for compiled in (True, False):
+        with jit.compiled(compiled):
+            with pytest.raises(InvalidInputError, match='not symmetric'):
+                check_covariance_matrix(np.array([[1.0, 1e308], [-1e308, 1.0]]), 'P')

@@ -92,7 +92,9 @@ def check_covariance_matrix(value, field: str) -> np.ndarray:
     matrix = as_float_array(value, field, 2)
     check_shape(matrix, field, (matrix.shape[0], matrix.shape[0]))
     scale = 1.0 + np.abs(matrix).max(initial=0.0)
-    if np.abs(matrix - matrix.T).max(initial=0.0) > 1e-9 * scale:
+    with np.errstate(over='ignore'):   # 1e308 against -1e308 differs by inf: not symmetric
+        asymmetry = np.abs(matrix - matrix.T).max(initial=0.0)
+    if asymmetry > 1e-9 * scale:
         raise InvalidInputError(f'{field}: not symmetric')
     diagonal = np.diagonal(matrix)
     if np.any(diagonal < 0):
