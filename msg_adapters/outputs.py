@@ -14,7 +14,8 @@ from data_association_ros.core import NEW, UNASSOCIATED, Association
 from data_association_ros.core.candidates import Candidate, ConfirmedLandmark
 
 from . import packing_kernels
-from .pointcloud import array_to_cloud, packed_cloud
+from .pointcloud import array_to_cloud, packed_cloud, packed_points
+from .serialized_cloud import packed_cloud_cdr
 
 CORRESPONDENCE_DTYPE = np.dtype([('observation', '<i4'), ('landmark', '<i4'), ('nis', '<f4'),
                                  ('probability', '<f4'), ('x', '<f4'), ('y', '<f4')])
@@ -32,23 +33,27 @@ CANDIDATE_DTYPE = np.dtype([('candidate', '<i4'), ('x', '<f4'), ('y', '<f4'), ('
 
 
 def correspondences_cloud(header, association: Association, map_positions: np.ndarray,
-                          probabilities: Optional[np.ndarray] = None):
+                          probabilities: Optional[np.ndarray] = None, serialized: bool = False):
     """PointCloud2, one point per observation: index, landmark id (-1 new, -2 unassociated),
-    NIS (NaN when none), probability (1 unless given), map-frame x, y."""
+    NIS (NaN when none), probability (1 unless given), map-frame x, y; serialized: its CDR
+    bytes instead (serialized_cloud.packed_cloud_cdr, publishable as they are)."""
     k = len(association.assignment)
     if k and packing_kernels.available():
         data, has_nan = packing_kernels.run_correspondence_words(
             association.assignment, association.nis, probabilities, map_positions)
-        return packed_cloud(data, k, CORRESPONDENCE_DTYPE, header, not has_nan)
-    points = _correspondences(k).copy()
-    points['landmark'] = association.assignment
-    points['nis'] = association.nis
-    if probabilities is not None:
-        points['probability'] = probabilities
-    if k:
-        points['x'] = map_positions[:, 0]
-        points['y'] = map_positions[:, 1]
-    return array_to_cloud(points, header)
+        is_dense = not has_nan
+    else:
+        points = _correspondences(k).copy()
+        points['landmark'] = association.assignment
+        points['nis'] = association.nis
+        if probabilities is not None:
+            points['probability'] = probabilities
+        if k:
+            points['x'] = map_positions[:, 0]
+            points['y'] = map_positions[:, 1]
+        data, _, _, is_dense = packed_points(points)
+    return (packed_cloud_cdr if serialized else packed_cloud)(
+        data, k, CORRESPONDENCE_DTYPE, header, is_dense)
 
 
 @lru_cache(maxsize=16)

@@ -115,6 +115,14 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
                    header=None) -> PointCloud2:
     """PointCloud2 (height 1, packed little-endian fields) from a 1-D structured array or a
     mapping name -> 1-D array; int64 values must fit INT32, bool becomes UINT8."""
+    data, count, dtype, is_dense = packed_points(array)
+    return packed_cloud(data, count, dtype, header, is_dense)
+
+
+def packed_points(array: Union[np.ndarray, Mapping[str, np.ndarray]]
+                  ) -> tuple[bytes, int, np.dtype, bool]:
+    """(data, number of points, dtype, is_dense) of the cloud array_to_cloud makes of `array`:
+    the points packed as packed_cloud reads them; is_dense False when a float is NaN."""
     if not isinstance(array, np.ndarray):
         columns = {name: np.asarray(values) for name, values in array.items()}
         lengths = {len(v) for v in columns.values()}
@@ -125,7 +133,7 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         for name, values in columns.items():
             structured[name] = values
         array = structured
-    packed_dtype, fields, float_runs = _packed_layout(array.dtype)
+    packed_dtype, _, float_runs = packed_layout(array.dtype)
     if array.dtype == packed_dtype:
         packed = array
     else:
@@ -135,15 +143,15 @@ def array_to_cloud(array: Union[np.ndarray, Mapping[str, np.ndarray]],
         for name in array.dtype.names:
             packed[name] = array[name]
     data = packed.tobytes()
-    return packed_cloud(data, len(array), packed_dtype, header,
-                        not _has_nan(data, len(array), packed_dtype.itemsize, float_runs))
+    return data, len(array), packed_dtype, \
+        not _has_nan(data, len(array), packed_dtype.itemsize, float_runs)
 
 
 def packed_cloud(data: bytes, count: int, dtype: np.dtype, header=None,
                  is_dense: bool = True) -> PointCloud2:
     """PointCloud2 (height 1) of `count` points already packed in `data` as array_to_cloud
     packs a structured array of `dtype` (fields in order, little-endian, no padding)."""
-    packed_dtype, fields, _ = _packed_layout(dtype)
+    packed_dtype, fields, _ = packed_layout(dtype)
     return PointCloud2(
         header=Header() if header is None else header, height=1, width=count,
         is_bigendian=False, point_step=packed_dtype.itemsize,
@@ -162,7 +170,7 @@ def _has_nan(data: bytes, count: int, point_step: int,
 
 
 @lru_cache(maxsize=128)
-def _packed_layout(dtype: np.dtype) -> tuple[np.dtype, tuple[tuple[str, int, int], ...],
+def packed_layout(dtype: np.dtype) -> tuple[np.dtype, tuple[tuple[str, int, int], ...],
                                              tuple[tuple[int, np.dtype, int], ...]]:
     """(packed little-endian dtype, its fields as (name, offset, PointField datatype), its
     runs of adjacent float fields of one dtype as (offset, dtype, number of fields)) of a

@@ -2,6 +2,7 @@
 and collects outputs over real topics, spun by one executor in this process."""
 from __future__ import annotations
 
+import struct
 import time
 from typing import Callable, Optional
 
@@ -44,6 +45,43 @@ def odometry(x: float, y: float, yaw: float, covariance_xyyaw, stamp: float) -> 
     full[np.ix_([0, 1, 5], [0, 1, 5])] = covariance_xyyaw
     msg.pose.covariance = full.ravel().tolist()
     return msg
+
+
+def cdr(msg: PointCloud2, order: str) -> bytes:
+    """`msg` in classic CDR with byte order `order` ('<' or '>'), written field by field from
+    the IDL of sensor_msgs/PointCloud2 (padding zero), independently of the module."""
+    out = bytearray(b'\x00\x01\x00\x00' if order == '<' else b'\x00\x00\x00\x00')
+
+    def align(size):
+        out.extend(b'\x00' * (-(len(out) - 4) % size))
+
+    def put(fmt, *values):
+        align(struct.calcsize(fmt))
+        out.extend(struct.pack(order + fmt, *values))
+
+    def string(text):
+        encoded = text.encode() + b'\x00'
+        put('I', len(encoded))
+        out.extend(encoded)
+
+    put('i', msg.header.stamp.sec)
+    put('I', msg.header.stamp.nanosec)
+    string(msg.header.frame_id)
+    put('I', msg.height)
+    put('I', msg.width)
+    put('I', len(msg.fields))
+    for field in msg.fields:
+        string(field.name)
+        put('I', field.offset)
+        put('B', field.datatype)
+        put('I', field.count)
+    put('B', msg.is_bigendian)
+    put('I', msg.point_step)
+    put('I', msg.row_step)
+    put('I', len(msg.data))
+    out.extend(bytes(msg.data))
+    put('B', msg.is_dense)
+    return bytes(out)
 
 
 class Graph:

@@ -21,10 +21,12 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import diagnostics_message, packing_kernels
+from msg_adapters.serialized_cloud import SerializedCloud
 
 from ..core import problem_kernels
 from ..core.associators import jcbb_compiled
@@ -73,7 +75,10 @@ class AssociationNode(ParameterizedNode):
                                  self._then_waiting(self.pipeline.on_odometry), qos)
         # Created last: when inputs of one scan wait together, the executor serves
         # subscriptions in creation order, so map and pose are taken before the scan.
-        self.create_subscription(PointCloud2, 'observations', self._on_observations, qos)
+        # raw: the scan read from its bytes and its correspondences published as bytes
+        # (msg_adapters/serialized_cloud.py): rclpy's message objects cost ~0.1 ms a scan
+        self.create_subscription(PointCloud2, 'observations', self._on_serialized_observations,
+                                 qos, raw=True)
         self.correspondences_pub = self.create_publisher(PointCloud2, 'correspondences', 10)
         self.new_landmarks_pub = self.create_publisher(PointCloud2, 'new_landmarks', 10)
         self.candidates_pub = self.create_publisher(PointCloud2, 'landmark_candidates', 10)
@@ -109,7 +114,17 @@ class AssociationNode(ParameterizedNode):
                 self._answer_waiting()
         return callback
 
-    def _on_observations(self, msg: PointCloud2) -> None:
+    def _on_serialized_observations(self, raw: bytes) -> None:
+        msg = SerializedCloud.from_cdr(raw)
+        if msg is None:   # not plain CDR or not a whole cloud: rclpy's deserialization decides
+            try:
+                msg = deserialize_message(raw, PointCloud2)
+            except Exception as error:  # no input is fatal
+                self.pipeline.count_invalid('observations', error)
+                return
+        self._on_observations(msg)
+
+    def _on_observations(self, msg) -> None:
         if self._waiting or self.pipeline.inputs_pending(msg):
             self._waiting.append((msg, time.monotonic()))   # keeps the arrival order
             if len(self._waiting) > MAX_WAITING:
@@ -132,7 +147,7 @@ class AssociationNode(ParameterizedNode):
             self._answer(msg)
         self._waiting_timer.cancel()
 
-    def _answer(self, msg: PointCloud2) -> None:
+    def _answer(self, msg) -> None:
         # the optional outputs only for topics someone subscribes to (building them costs)
         wanted = {topic for topic, publisher in (
             ('new_landmarks', self.new_landmarks_pub), ('landmark_candidates', self.candidates_pub),

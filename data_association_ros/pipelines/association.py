@@ -22,6 +22,7 @@ from msg_adapters import (PointCloudFormatError, array_to_cloud, association_mar
                           detect_model, landmarks_from_points, landmarks_from_pose_array,
                           new_landmarks_cloud, observations_from_points, pose_from_odometry,
                           state_covariance_from_cloud, transform_message)
+from msg_adapters.serialized_cloud import SerializedCloud
 
 from ..core import NEW, Association, InvalidInputError, Landmarks, RobotPose
 from ..core.candidates import CandidateManager, CandidateUpdate
@@ -91,7 +92,8 @@ OPTIONAL_OUTPUTS = frozenset({'new_landmarks', 'landmark_candidates', 'associati
 @dataclass
 class Answer:
     """The outputs for one observation message (new_landmarks, candidates and markers may be
-    None: none to publish, or not wanted)."""
+    None: none to publish, or not wanted); correspondences: a PointCloud2, or its CDR bytes
+    when the observation message was a SerializedCloud (msg_adapters.serialized_cloud)."""
 
     correspondences: Any
     new_landmarks: Optional[Any]
@@ -126,7 +128,8 @@ class AssociationPipeline:
         if self.statistics.should_warn(cause, time.monotonic()):
             self.warn(f'{text} (further {cause!r} warnings throttled)')
 
-    def _invalid(self, topic: str, error: Exception) -> None:
+    def count_invalid(self, topic: str, error: Exception) -> None:
+        """Count a `topic` message rejected for `error` (and warn, throttled)."""
         self._reject(self.statistics.invalid, topic, f'{topic} message rejected: {error}')
 
     def on_landmarks(self, msg) -> None:
@@ -137,7 +140,7 @@ class AssociationPipeline:
             landmarks = landmarks_from_points(points, self.config['default_landmark_covariance'],
                                               box)
         except INPUT_ERRORS as error:
-            self._invalid('landmarks', error)
+            self.count_invalid('landmarks', error)
             return
         self._add_landmarks(msg.header, landmarks)
 
@@ -146,7 +149,7 @@ class AssociationPipeline:
         try:
             landmarks = landmarks_from_pose_array(msg, self.config['default_landmark_covariance'])
         except INPUT_ERRORS as error:
-            self._invalid('landmarks', error)
+            self.count_invalid('landmarks', error)
             return
         self._add_landmarks(msg.header, landmarks)
 
@@ -172,7 +175,7 @@ class AssociationPipeline:
         try:
             pose = pose_from_odometry(msg)
         except INPUT_ERRORS as error:
-            self._invalid(topic, error)
+            self.count_invalid(topic, error)
             return
         history.add(stamp_ns(msg.header), pose)
 
@@ -182,7 +185,7 @@ class AssociationPipeline:
         try:
             ids, matrix = state_covariance_from_cloud(msg)
         except INPUT_ERRORS as error:
-            self._invalid('state_covariance', error)
+            self.count_invalid('state_covariance', error)
             return
         self.covariance_history.add(stamp_ns(msg.header), StampedCovariance(ids, matrix))
 
@@ -253,14 +256,15 @@ class AssociationPipeline:
         return item is not None and newest < item.stamp
 
     def answer(self, msg, wanted: Optional[AbstractSet[str]] = None) -> Optional[Answer]:
-        """The outputs for an observation PointCloud2, or None when it is skipped or invalid.
+        """The outputs for an observation PointCloud2 (or SerializedCloud), or None when it is
+        skipped or invalid.
         wanted: the optional outputs to build (OPTIONAL_OUTPUTS; the node passes those with a
         subscriber, None: all); the others are None, the state (candidates) is updated alike."""
         started = time.perf_counter()
         try:
             return self._answer(msg, started, OPTIONAL_OUTPUTS if wanted is None else wanted)
         except INPUT_ERRORS as error:
-            self._invalid('observations', error)
+            self.count_invalid('observations', error)
         except Exception as error:  # never let one message take the node down
             self._reject(self.statistics.invalid, 'internal_error',
                          f'observation message dropped by an internal error: {error!r}')
@@ -320,7 +324,8 @@ class AssociationPipeline:
         map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id) \
             if wanted else None
         answer = Answer(
-            correspondences=correspondences_cloud(msg.header, result, positions),
+            correspondences=correspondences_cloud(msg.header, result, positions,
+                                                  serialized=isinstance(msg, SerializedCloud)),
             new_landmarks=new_landmarks_cloud(map_header, update.confirmed)
             if 'new_landmarks' in wanted else None,
             candidates=candidates_cloud(map_header, self.candidates.pending,
@@ -381,7 +386,8 @@ class AssociationPipeline:
         map_header = Header(stamp=msg.header.stamp, frame_id=item.frame_id)
         answer = Answer(
             correspondences=correspondences_cloud(msg.header, association, positions,
-                                                  association.extras['probability']),
+                                                  association.extras['probability'],
+                                                  isinstance(msg, SerializedCloud)),
             new_landmarks=None, markers=None, association=association,
             pose_hypotheses=array_to_cloud(hypotheses, map_header),
             past_associations=array_to_cloud(past, map_header))
@@ -409,5 +415,5 @@ class AssociationPipeline:
                 model='box' if model == 'box' else 'point_map',
                 euclidean=config['algorithm'] == 'euclidean_nn')
         except InvalidInputError as error:  # e.g. a degenerate map-frame covariance
-            self._invalid('candidates', error)
+            self.count_invalid('candidates', error)
             return CandidateUpdate((), ())
