@@ -34,6 +34,7 @@ def child(algorithm: str, scans: int, warm: bool, observations: int, landmarks: 
     import numpy as np
     import rclpy
     from rclpy.parameter import Parameter
+    from rclpy.serialization import serialize_message
     from std_msgs.msg import Header
 
     from msg_adapters import array_to_cloud, odometry_message
@@ -53,10 +54,10 @@ def child(algorithm: str, scans: int, warm: bool, observations: int, landmarks: 
         node.pipeline.on_landmarks(array_to_cloud(landmark_points, stamp))
         odometry = odometry_message(stamp, pose, pose_covariance)
         node._on_robot_pose(odometry)
-        message = array_to_cloud(observation_points, Header(stamp=stamp.stamp,
-                                                            frame_id='base_link'))
+        message = serialize_message(array_to_cloud(
+            observation_points, Header(stamp=stamp.stamp, frame_id='base_link')))
         t0 = time.perf_counter()
-        node._on_observations(message)
+        node._on_serialized_observations(message)   # as the raw subscription delivers it
         times.append((time.perf_counter() - t0) * 1e3)
     node.destroy_node()
     rclpy.shutdown()

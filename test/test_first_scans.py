@@ -3,6 +3,7 @@ search, thresholds) is done when the constructor returns, and a fresh node's fir
 the library's answers."""
 import numpy as np
 from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Header
 
@@ -72,8 +73,8 @@ def test_fresh_node_answers_its_first_scans_as_the_library():
                 stamp.stamp.sec = 10 + k
                 node.pipeline.on_landmarks(array_to_cloud(lm_points, stamp))
                 node._on_robot_pose(odometry(*pose_mean, pose_covariance, 10 + k))
-                node._on_observations(array_to_cloud(
-                    obs_points, Header(stamp=stamp.stamp, frame_id='base_link')))
+                node._on_serialized_observations(serialize_message(array_to_cloud(
+                    obs_points, Header(stamp=stamp.stamp, frame_id='base_link'))))
                 assert graph.spin_until(lambda: len(replies) == k + 1)
                 np.testing.assert_array_equal(cloud_to_array(replies[-1])['landmark'],
                                               expected.assignment)

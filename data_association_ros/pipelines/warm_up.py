@@ -7,7 +7,8 @@
   1..WARM_DOF degrees of freedom (scipy's chi2.ppf costs about 0.3 ms a call; JCBB needs m l
   of them for l pairs, cached once computed);
 * a throw-away AssociationPipeline answers a small synthetic range-bearing scan with every
-  single-scan algorithm (first calls into numpy, scipy and the message code).
+  single-scan algorithm, as a message and from its bytes (first calls into numpy, scipy and
+  the message code).
 """
 from __future__ import annotations
 
@@ -19,6 +20,8 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Header
 
 from msg_adapters import array_to_cloud, packing_kernels
+from msg_adapters.pointcloud import packed_points
+from msg_adapters.serialized_cloud import SerializedCloud, packed_cloud_cdr
 
 from ..core import jit
 from ..core.associators import REGISTRY, jcbb_compiled
@@ -30,7 +33,8 @@ WARM_DOF = 256
 
 
 def _synthetic_messages(observed: int = 64, count: int = 256):
-    """(landmarks cloud, Odometry, observations cloud): `count` landmarks on a spiral around the
+    """(landmarks cloud, Odometry, observations cloud, the same as the node reads it from its
+    bytes): `count` landmarks on a spiral around the
     origin (golden-angle steps, 0.2 m further out each), the first `observed` of them seen
     without noise from the origin, stamp 1 s.  Scan-sized arrays: the first K x N arrays of a
     process also pay for fresh memory pages (5 ms at K = 50, N = 200)."""
@@ -52,8 +56,11 @@ def _synthetic_messages(observed: int = 64, count: int = 256):
     scan['range'] = seen
     scan['bearing'] = np.arctan2(landmarks['y'][:observed], landmarks['x'][:observed])
     scan['var_range'], scan['var_bearing'] = 1e-4, 1e-6
-    return (array_to_cloud(landmarks, header), odometry,
-            array_to_cloud(scan, Header(stamp=header.stamp, frame_id='base_link')))
+    scan_header = Header(stamp=header.stamp, frame_id='base_link')
+    data, observed, dtype, is_dense = packed_points(scan)
+    return (array_to_cloud(landmarks, header), odometry, array_to_cloud(scan, scan_header),
+            SerializedCloud.from_cdr(packed_cloud_cdr(data, observed, dtype, scan_header,
+                                                      is_dense)))
 
 
 def warm_up(config: dict[str, Any]) -> dict[str, float]:
@@ -73,12 +80,13 @@ def warm_up(config: dict[str, Any]) -> dict[str, float]:
                 chi2_threshold(probability, dof)
     spent['thresholds_s'] = time.perf_counter() - started
     started = time.perf_counter()
-    landmarks, odometry, scan = _synthetic_messages()
+    landmarks, odometry, scan, serialized_scan = _synthetic_messages()
     for algorithm in REGISTRY:
         pipeline = AssociationPipeline({**config, 'algorithm': algorithm,
                                         'measurement_model': 'auto', 'publish_markers': True})
         pipeline.on_landmarks(landmarks)
         pipeline.on_robot_pose(odometry)
         pipeline.answer(scan)
+        pipeline.answer(serialized_scan)
     spent['scans_s'] = time.perf_counter() - started
     return spent
