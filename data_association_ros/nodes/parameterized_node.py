@@ -15,12 +15,14 @@ import rclpy
 
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from ..core import InvalidInputError
 from ..pipelines.parameters import NodeParameter
+from .qos_watch import QOS_CHECK_PERIOD, QosWatch
 
 
 def descriptor(parameter: NodeParameter) -> ParameterDescriptor:
@@ -58,7 +60,9 @@ def refusal(node: str, parameter: NodeParameter, value: Any) -> str:
 
 class ParameterizedNode(Node):
     """Declares `parameters`; `config` holds the values in force; `combination(config)` raises
-    InvalidInputError when values valid one by one conflict; `on_change()` runs after a set."""
+    InvalidInputError when values valid one by one conflict; `on_change()` runs after a set.
+    Publishers and subscriptions are made without rclpy's default event handlers; `qos_watch`
+    reports incompatible QoS and types from the graph instead (qos_watch.py)."""
 
     def __init__(self, name: str, parameters: Sequence[NodeParameter],
                  combination: Callable[[dict], None] = lambda config: None, **kwargs) -> None:
@@ -73,6 +77,19 @@ class ParameterizedNode(Node):
             raise
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
+        self.qos_watch = QosWatch(self, self.get_logger().warning)
+        self.qos_timer = self.create_timer(QOS_CHECK_PERIOD, self.qos_watch.check)
+
+    def create_publisher(self, *args, **kwargs):
+        """Node.create_publisher without default event handlers (unless `event_callbacks`)."""
+        kwargs.setdefault('event_callbacks', PublisherEventCallbacks(use_default_callbacks=False))
+        return super().create_publisher(*args, **kwargs)
+
+    def create_subscription(self, *args, **kwargs):
+        """Node.create_subscription without default event handlers (unless `event_callbacks`)."""
+        kwargs.setdefault('event_callbacks',
+                          SubscriptionEventCallbacks(use_default_callbacks=False))
+        return super().create_subscription(*args, **kwargs)
 
     def _declare(self, parameters: Sequence[NodeParameter]) -> None:
         """Declare and check every parameter; StartupParameterError at the first invalid one."""

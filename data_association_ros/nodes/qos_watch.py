@@ -1,0 +1,107 @@
+"""Endpoints on the node's topics whose QoS or type cannot match its own, found from the ROS
+graph on a timer (in place of rclpy's default event handlers).
+
+rclpy gives every publisher and subscription two event handlers that only log (incompatible
+QoS, incompatible type).  The executor checks each of them, in Python, whenever it wakes up:
+association_node's 28 cost about 0.1 ms of every scan's round trip (docs/benchmarks.md).  The
+nodes therefore create their endpoints without them (ParameterizedNode), and QosWatch.check,
+called every QOS_CHECK_PERIOD, warns instead: each topic's endpoint count is read (a cheap call)
+and, where it changed, the endpoints are listed and checked with rclpy.qos.qos_check_compatible
+and by type name.  Each incompatible endpoint is reported once.
+"""
+from __future__ import annotations
+
+import copy
+from typing import Callable
+
+from rclpy.duration import Infinite
+from rclpy.node import Node
+from rclpy.qos import QoSCompatibility, QoSProfile, qos_check_compatible
+
+QOS_CHECK_PERIOD = 2.0
+"""Seconds between two looks at the graph."""
+UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'
+"""The node name the graph gives an endpoint whose node it has not discovered yet."""
+
+
+def as_discovered(profile: QoSProfile) -> QoSProfile:
+    """`profile` as the graph reports an endpoint's: the durations left at 0 (the default:
+    none) are Infinite there, and qos_check_compatible must not take 0 for a deadline."""
+    discovered = copy.copy(profile)
+    for name in ('deadline', 'lifespan', 'liveliness_lease_duration'):
+        if getattr(discovered, name).nanoseconds == 0:
+            setattr(discovered, name, Infinite)
+    return discovered
+
+
+def type_name(msg_type) -> str:
+    """'package/msg/Name' of a message class, as the graph names topic types."""
+    return f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
+
+
+class QosWatch:
+    """Checks `node`'s publishers and subscriptions against the other endpoints on their topics;
+    `warn(text)` once per incompatible endpoint (by its gid) and problem."""
+
+    def __init__(self, node: Node, warn: Callable[[str], None]) -> None:
+        self.node = node
+        self.warn = warn
+        self._counts: dict[tuple[str, str], int] = {}
+        self._reported: set[tuple[str, bytes, str]] = set()   # (topic, gid, 'qos' / 'type')
+
+    def check(self) -> list[str]:
+        """Look at the topics whose endpoint counts changed; warn about (and return) the
+        incompatibilities not reported before."""
+        node = self.node
+        found = []
+        for subscription in node.subscriptions:
+            found += self._check_topic(
+                'publishers', subscription.topic_name, node.count_publishers,
+                node.get_publishers_info_by_topic,
+                lambda info, own=subscription: self._compare(
+                    info, own.topic_name, own.msg_type, info.qos_profile,
+                    as_discovered(own.qos_profile), 'publisher', 'offering', 'received from'))
+        for publisher in node.publishers:
+            found += self._check_topic(
+                'subscriptions', publisher.topic_name, node.count_subscribers,
+                node.get_subscriptions_info_by_topic,
+                lambda info, own=publisher: self._compare(
+                    info, own.topic_name, own.msg_type, as_discovered(own.qos_profile),
+                    info.qos_profile, 'subscription', 'requesting', 'sent to'))
+        for text in found:
+            self.warn(text)
+        return found
+
+    def _check_topic(self, kind: str, topic: str, count, endpoints, compare) -> list[str]:
+        """The new problems with the `kind` endpoints on `topic` when their count changed; an
+        endpoint whose node is not discovered yet is looked at again next time."""
+        number = count(topic)
+        if self._counts.get((kind, topic)) == number:
+            return []
+        self._counts[(kind, topic)] = number
+        found = []
+        for info in endpoints(topic):
+            if info.node_name == UNKNOWN_NODE:
+                del self._counts[(kind, topic)]
+                continue
+            found += compare(info)
+        return found
+
+    def _compare(self, info, topic: str, own_type, publisher_qos, subscription_qos, other: str,
+                 verb: str, direction: str) -> list[str]:
+        """The new problems between one of ours and the endpoint `info` (rclpy's wording)."""
+        where = f"on topic '{topic}' (node {info.node_namespace.rstrip('/')}/{info.node_name})"
+        if info.topic_type != type_name(own_type):
+            problem = 'type', (f'Incompatible type {where}: {info.topic_type}, not '
+                               f'{type_name(own_type)}; no messages will be {direction} it.')
+        else:
+            compatibility, reason = qos_check_compatible(publisher_qos, subscription_qos)
+            if compatibility != QoSCompatibility.ERROR:
+                return []
+            problem = 'qos', (f'New {other} discovered {where}, {verb} incompatible QoS. '
+                              f'No messages will be {direction} it. {reason}')
+        key = (topic, bytes(info.endpoint_gid), problem[0])
+        if key in self._reported:
+            return []
+        self._reported.add(key)
+        return [problem[1]]

@@ -1,0 +1,118 @@
+"""The nodes' endpoints carry no event handlers; QosWatch reports, from the graph, the
+incompatible QoS and types rclpy's default handlers reported (real rclpy, loopback DDS)."""
+import numpy as np
+import pytest
+import rclpy
+from geometry_msgs.msg import PoseArray
+from rclpy.context import Context
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from sensor_msgs.msg import PointCloud2
+
+from data_association_ros.nodes.association_node import AssociationNode
+from data_association_ros.nodes.box_tracker_node import BoxTrackerNode
+from data_association_ros.nodes.ekf_slam_node import EkfSlamNode
+from data_association_ros.nodes.lidar_tracker_node import LidarTrackerNode
+from data_association_ros.nodes.qos_watch import QOS_CHECK_PERIOD
+from msg_adapters import array_to_cloud
+from ros_harness import Graph
+
+
+@pytest.fixture
+def other():
+    """A node in a context of its own (its own DDS participant, as another process would be:
+    one participant refuses a second type on a topic)."""
+    context = Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node('other', context=context)
+    yield node
+    node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+@pytest.mark.parametrize('node_class', [AssociationNode, EkfSlamNode, BoxTrackerNode,
+                                        LidarTrackerNode])
+def test_the_nodes_wait_on_no_event_handlers(node_class):
+    graph = Graph()
+    try:
+        node = node_class(context=graph.context)
+        assert list(node.publishers) and list(node.subscriptions)
+        assert list(node.waitables) == []
+    finally:
+        graph.close()
+
+
+def seen(graph, node, topics) -> bool:
+    """Spin until each topic has another endpoint besides the node's, with its node known."""
+    def known(topic):
+        endpoints = node.get_publishers_info_by_topic(topic) + \
+            node.get_subscriptions_info_by_topic(topic)
+        return len(endpoints) >= 2 and all(info.node_name == 'other' or
+                                           info.node_name == node.get_name()
+                                           for info in endpoints)
+    return graph.spin_until(lambda: all(known(topic) for topic in topics), 5.0)
+
+
+def test_incompatible_qos_and_types_reported_once_compatible_ones_not(other):
+    graph = Graph()
+    try:
+        node = AssociationNode(context=graph.context)
+        node.qos_timer.cancel()     # checked by hand here
+        graph.add(node)
+        warnings = []
+        node.qos_watch.warn = warnings.append
+        # compatible: a reliable publisher of scans, a default subscriber of the answers
+        other.create_publisher(PointCloud2, 'landmarks', 10)
+        other.create_subscription(PointCloud2, 'correspondences', lambda msg: None, 10)
+        assert seen(graph, node, ['/landmarks', '/correspondences'])
+        assert node.qos_watch.check() == [] and warnings == []
+        # incompatible: best effort into a reliable subscription, a transient-local
+        # subscriber of a volatile publisher, a PoseArray on the Odometry topic
+        other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+        other.create_subscription(PointCloud2, 'new_landmarks', lambda msg: None,
+                                  QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        other.create_publisher(PoseArray, 'robot_pose', 10)
+        assert seen(graph, node, ['/observations', '/new_landmarks', '/robot_pose'])
+        found = node.qos_watch.check()
+        assert len(found) == 3 and found == warnings
+        qos_scan, qos_new, wrong_type = sorted(found, key=lambda text: (
+            '/observations' not in text, '/new_landmarks' not in text))
+        assert "'/observations' (node /other), offering incompatible QoS" in qos_scan
+        assert 'Best effort publisher and reliable subscription' in qos_scan
+        assert "'/new_landmarks' (node /other), requesting incompatible QoS" in qos_new
+        assert 'Volatile publisher and transient local subscription' in qos_new
+        assert 'deadline' not in qos_new    # unset durations are not taken for a deadline
+        assert "type on topic '/robot_pose' (node /other): geometry_msgs/msg/PoseArray, " \
+            'not nav_msgs/msg/Odometry' in wrong_type
+        assert node.qos_watch.check() == []          # each reported once
+        # another incompatible endpoint on a topic already reported is reported too
+        other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+        assert graph.spin_until(lambda: node.count_publishers('/observations') == 2, 5.0)
+        assert len(node.qos_watch.check()) == 1
+    finally:
+        graph.close()
+
+
+def test_a_best_effort_node_takes_a_reliable_publisher_and_the_timer_reports_by_itself(other):
+    graph = Graph()
+    try:
+        node = AssociationNode(context=graph.context, parameter_overrides=[
+            Parameter('input_qos', value='sensor_data')])
+        graph.add(node)
+        warnings = []
+        node.qos_watch.warn = warnings.append
+        other.create_publisher(PointCloud2, 'observations', 10)    # reliable: compatible
+        other.create_subscription(PointCloud2, 'correspondences', lambda msg: None,
+                                  QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        assert graph.spin_until(lambda: warnings, 3 * QOS_CHECK_PERIOD)
+        assert len(warnings) == 1 and "'/correspondences'" in warnings[0]
+        # the answers still flow to a compatible subscriber alongside
+        answers = graph.collect(PointCloud2, 'correspondences')
+        graph.publisher(PointCloud2, 'landmarks').publish(array_to_cloud(
+            {'id': np.array([1], np.int32), 'x': [0.0], 'y': [0.0]}))
+        graph.spin_until(lambda: False, 0.3)
+        graph.publisher(PointCloud2, 'observations').publish(array_to_cloud(
+            {'x': [0.1], 'y': [0.0]}))
+        assert graph.spin_until(lambda: answers, 5.0)
+    finally:
+        graph.close()
