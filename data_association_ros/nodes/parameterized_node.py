@@ -78,7 +78,15 @@ class ParameterizedNode(Node):
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.qos_watch = QosWatch(self, self.get_logger().warning)
-        self.qos_timer = self.create_timer(QOS_CHECK_PERIOD, self.qos_watch.check)
+        self.qos_timer = self.create_timer(QOS_CHECK_PERIOD, self._check_qos)
+
+    def _check_qos(self) -> None:
+        """qos_watch.check, never fatal (it only informs)."""
+        try:
+            self.qos_watch.check()
+        except Exception as error:  # e.g. the graph going away at shutdown
+            self.get_logger().warning(f'QoS compatibility check failed: {error!r}',
+                                      throttle_duration_sec=60.0)
 
     def create_publisher(self, *args, **kwargs):
         """Node.create_publisher without default event handlers (unless `event_callbacks`)."""
