@@ -88,10 +88,12 @@ class SerializedCloud:
 
 
 def _string(raw: bytes, at: int, length: int) -> str:
-    """The CDR string of `length` bytes (with its NUL) at `at`."""
+    """The CDR string of `length` bytes at `at`, up to its first NUL (as rclpy reads it: all
+    `length` bytes when none is NUL)."""
     if at + length > len(raw):
         raise ValueError('string runs past the message')
-    return raw[at:at + max(length - 1, 0)].decode()
+    end = raw.find(b'\x00', at, at + length)
+    return raw[at:at + length if end < 0 else end].decode()
 
 
 def _read_fields(raw: bytes, at: int, order: str) -> tuple[int, tuple[PointField, ...]]:

@@ -13,7 +13,7 @@ from data_association_ros.nodes.association_node import AssociationNode
 from data_association_ros.nodes.box_tracker_node import BoxTrackerNode
 from data_association_ros.nodes.ekf_slam_node import EkfSlamNode
 from data_association_ros.nodes.lidar_tracker_node import LidarTrackerNode
-from data_association_ros.nodes.qos_watch import QOS_CHECK_PERIOD
+from data_association_ros.nodes.qos_watch import FULL_CHECK_EVERY, QOS_CHECK_PERIOD
 from msg_adapters import array_to_cloud
 from ros_harness import Graph
 
@@ -118,5 +118,54 @@ def test_a_best_effort_node_takes_a_reliable_publisher_and_the_timer_reports_by_
         graph.publisher(PointCloud2, 'observations').publish(array_to_cloud(
             {'x': [0.1], 'y': [0.0]}))
         assert graph.spin_until(lambda: answers, 5.0)
+    finally:
+        graph.close()
+
+
+def test_a_publisher_replaced_between_two_looks_and_undiscovered_nodes_are_reported():
+    """The count alone misses a compatible publisher replaced by an incompatible one between
+    two looks: every FULL_CHECK_EVERY looks each topic is listed anyway.  Endpoints seen before
+    their node (several on one topic) are looked at again, nothing raised or lost."""
+    graph = Graph()
+    try:
+        node = AssociationNode(context=graph.context)
+        node.qos_timer.cancel()     # checked by hand here
+        graph.add(node)
+        warnings = []
+        node.qos_watch.warn = warnings.append
+        for attempt in range(6):    # two publishers of a node just started, looked at at once
+            context = Context()
+            rclpy.init(context=context)
+            other = rclpy.create_node(f'driver{attempt}', context=context)
+            for _ in range(2):
+                other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+            graph.spin_until(lambda: node.count_publishers('/observations') == 2, 5.0)
+            node.qos_watch.check()
+            assert graph.spin_until(
+                lambda: node.qos_watch.check() is None or len(warnings) == 2 * attempt + 2)
+            assert all(f'(node /driver{attempt})' in text for text in warnings[-2:])
+            other.destroy_node()
+            rclpy.shutdown(context=context)
+            assert graph.spin_until(lambda: node.count_publishers('/observations') == 0, 5.0)
+        warnings.clear()
+        # a reliable publisher, looked at, then replaced by a best-effort one: count 1 -> 1
+        context = Context()
+        rclpy.init(context=context)
+        other = rclpy.create_node('driver', context=context)
+        reliable = other.create_publisher(PointCloud2, 'observations', 10)
+        assert graph.spin_until(lambda: node.count_publishers('/observations') == 1, 5.0)
+        graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
+        assert warnings == []
+        other.destroy_publisher(reliable)
+        other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+        assert graph.spin_until(lambda: [info.qos_profile.reliability for info in
+                                         node.get_publishers_info_by_topic('/observations')
+                                         if info.node_name == 'driver'] ==
+                                [qos_profile_sensor_data.reliability], 5.0)
+        for _ in range(FULL_CHECK_EVERY):
+            node.qos_watch.check()
+        assert len(warnings) == 1 and "'/observations' (node /driver)" in warnings[0]
+        other.destroy_node()
+        rclpy.shutdown(context=context)
     finally:
         graph.close()

@@ -1,5 +1,7 @@
 """PointCloud2 read from and written to CDR bytes (msg_adapters/serialized_cloud.py), checked
 against rclpy's own serialization and an independent CDR writer."""
+import struct
+
 import numpy as np
 from builtin_interfaces.msg import Time
 from hypothesis import given, settings
@@ -105,3 +107,18 @@ def test_packed_bytes_are_the_message_packed_cloud_makes(dtype, count, frame_id,
     assert deserialize_message(raw, PointCloud2) == msg
     assert raw == cdr(msg, '<')     # rclpy's bytes differ only in their padding
     assert_same_cloud(SerializedCloud.from_cdr(raw), msg)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.sampled_from([b'a', b'b', b'\x00', 'é'.encode()]), max_size=10).map(b''.join),
+       clouds())
+def test_a_string_reads_up_to_its_first_nul_as_rclpy_reads_it(content, msg):
+    """A writer may leave out the final NUL or put one inside (a C++ std::string): the frame
+    id is then what rclpy makes of it, up to the first NUL or all `length` bytes."""
+    msg.header.frame_id = ''
+    raw = serialize_message(msg)      # the empty frame id: length 1, NUL, 3 bytes padding
+    raw = raw[:12] + struct.pack('<I', len(content)) + content + b'\x00' * (-len(content) % 4) \
+        + raw[20:]
+    expected = deserialize_message(raw, PointCloud2)
+    assert expected.header.frame_id == content.split(b'\x00')[0].decode()
+    assert_same_cloud(SerializedCloud.from_cdr(raw), expected)

@@ -6,8 +6,9 @@ QoS, incompatible type).  The executor checks each of them, in Python, whenever 
 association_node's 28 cost about 0.1 ms of every scan's round trip (docs/benchmarks.md).  The
 nodes therefore create their endpoints without them (ParameterizedNode), and QosWatch.check,
 called every QOS_CHECK_PERIOD, warns instead: each topic's endpoint count is read (a cheap call)
-and, where it changed, the endpoints are listed and checked with rclpy.qos.qos_check_compatible
-and by type name.  Each incompatible endpoint is reported once.
+and, where it changed (and every FULL_CHECK_EVERY looks), the endpoints are listed and checked
+with rclpy.qos.qos_check_compatible and by type name.  Each incompatible endpoint is reported
+once; one whose node is not discovered yet is looked at again the next time.
 """
 from __future__ import annotations
 
@@ -20,6 +21,9 @@ from rclpy.qos import QoSCompatibility, QoSProfile, qos_check_compatible
 
 QOS_CHECK_PERIOD = 2.0
 """Seconds between two looks at the graph."""
+FULL_CHECK_EVERY = 5
+"""Every this many looks, every topic's endpoints are listed, whatever their counts: an
+endpoint replaced by another between two looks leaves the count as it was."""
 UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'
 """The node name the graph gives an endpoint whose node it has not discovered yet."""
 
@@ -47,12 +51,17 @@ class QosWatch:
         self.node = node
         self.warn = warn
         self._counts: dict[tuple[str, str], int] = {}
+        self._looks = 0
         self._reported: set[tuple[str, bytes, str]] = set()   # (topic, gid, 'qos' / 'type')
 
     def check(self) -> list[str]:
-        """Look at the topics whose endpoint counts changed; warn about (and return) the
-        incompatibilities not reported before."""
+        """Look at the topics whose endpoint counts changed (every topic every
+        FULL_CHECK_EVERY looks); warn about (and return) the incompatibilities not reported
+        before."""
         node = self.node
+        self._looks += 1
+        if self._looks % FULL_CHECK_EVERY == 0:
+            self._counts.clear()
         found = []
         for subscription in node.subscriptions:
             found += self._check_topic(
@@ -82,7 +91,7 @@ class QosWatch:
         found = []
         for info in endpoints(topic):
             if info.node_name == UNKNOWN_NODE:
-                del self._counts[(kind, topic)]
+                self._counts.pop((kind, topic), None)
                 continue
             found += compare(info)
         return found
