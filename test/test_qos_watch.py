@@ -53,48 +53,55 @@ def seen(graph, node, topics) -> bool:
     return graph.spin_until(lambda: all(known(topic) for topic in topics), 5.0)
 
 
-def test_incompatible_qos_and_types_reported_once_compatible_ones_not(other):
+@pytest.fixture
+def watched():
+    """(graph, association_node with its QoS timer stopped (checked by hand), its warnings)."""
     graph = Graph()
     try:
         node = AssociationNode(context=graph.context)
-        node.qos_timer.cancel()     # checked by hand here
+        node.qos_timer.cancel()
         graph.add(node)
         warnings = []
         node.qos_watch.warn = warnings.append
-        # compatible: a reliable publisher of scans, a default subscriber of the answers
-        other.create_publisher(PointCloud2, 'landmarks', 10)
-        other.create_subscription(PointCloud2, 'correspondences', lambda msg: None, 10)
-        assert seen(graph, node, ['/landmarks', '/correspondences'])
-        assert node.qos_watch.check() == [] and warnings == []
-        # incompatible: best effort into a reliable subscription, a transient-local
-        # subscriber of a volatile publisher, a PoseArray on the Odometry topic
-        other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
-        other.create_subscription(PointCloud2, 'new_landmarks', lambda msg: None,
-                                  QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
-        other.create_publisher(PoseArray, 'robot_pose', 10)
-        assert seen(graph, node, ['/observations', '/new_landmarks', '/robot_pose'])
-        assert graph.spin_until(lambda: node.qos_watch.check() is None or len(warnings) >= 3)
-        found = list(warnings)
-        assert len(found) == 3
-        qos_scan, qos_new, wrong_type = sorted(found, key=lambda text: (
-            '/observations' not in text, '/new_landmarks' not in text))
-        assert "'/observations' (node /other), offering incompatible QoS" in qos_scan
-        assert 'Best effort publisher and reliable subscription' in qos_scan
-        assert "'/new_landmarks' (node /other), requesting incompatible QoS" in qos_new
-        assert 'Volatile publisher and transient local subscription' in qos_new
-        assert 'deadline' not in qos_new    # unset durations are not taken for a deadline
-        assert "type on topic '/robot_pose' (node /other): geometry_msgs/msg/PoseArray, " \
-            'not nav_msgs/msg/Odometry' in wrong_type
-        assert node.qos_watch.check() == [] and len(warnings) == 3   # each reported once
-        # another incompatible endpoint on a topic already reported is reported too (once its
-        # node is discovered)
-        other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
-        assert graph.spin_until(lambda: node.qos_watch.check() is None or len(warnings) == 4)
-        assert "'/observations' (node /other), offering incompatible QoS" in warnings[3]
-        graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
-        assert len(warnings) == 4
+        yield graph, node, warnings
     finally:
         graph.close()
+
+
+def test_incompatible_qos_and_types_reported_once_compatible_ones_not(other, watched):
+    graph, node, warnings = watched
+    # compatible: a reliable publisher of scans, a default subscriber of the answers
+    other.create_publisher(PointCloud2, 'landmarks', 10)
+    other.create_subscription(PointCloud2, 'correspondences', lambda msg: None, 10)
+    assert seen(graph, node, ['/landmarks', '/correspondences'])
+    assert node.qos_watch.check() == [] and warnings == []
+    # incompatible: best effort into a reliable subscription, a transient-local
+    # subscriber of a volatile publisher, a PoseArray on the Odometry topic
+    other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+    other.create_subscription(PointCloud2, 'new_landmarks', lambda msg: None,
+                              QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    other.create_publisher(PoseArray, 'robot_pose', 10)
+    assert seen(graph, node, ['/observations', '/new_landmarks', '/robot_pose'])
+    assert graph.spin_until(lambda: node.qos_watch.check() is None or len(warnings) >= 3)
+    found = list(warnings)
+    assert len(found) == 3
+    qos_scan, qos_new, wrong_type = sorted(found, key=lambda text: (
+        '/observations' not in text, '/new_landmarks' not in text))
+    assert "'/observations' (node /other), offering incompatible QoS" in qos_scan
+    assert 'Best effort publisher and reliable subscription' in qos_scan
+    assert "'/new_landmarks' (node /other), requesting incompatible QoS" in qos_new
+    assert 'Volatile publisher and transient local subscription' in qos_new
+    assert 'deadline' not in qos_new    # unset durations are not taken for a deadline
+    assert "type on topic '/robot_pose' (node /other): geometry_msgs/msg/PoseArray, " \
+        'not nav_msgs/msg/Odometry' in wrong_type
+    assert node.qos_watch.check() == [] and len(warnings) == 3   # each reported once
+    # another incompatible endpoint on a topic already reported is reported too (once its
+    # node is discovered)
+    other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+    assert graph.spin_until(lambda: node.qos_watch.check() is None or len(warnings) == 4)
+    assert "'/observations' (node /other), offering incompatible QoS" in warnings[3]
+    graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
+    assert len(warnings) == 4
 
 
 def test_a_best_effort_node_takes_a_reliable_publisher_and_the_timer_reports_by_itself(other):
@@ -122,50 +129,42 @@ def test_a_best_effort_node_takes_a_reliable_publisher_and_the_timer_reports_by_
         graph.close()
 
 
-def test_a_publisher_replaced_between_two_looks_and_undiscovered_nodes_are_reported():
+def test_a_publisher_replaced_between_two_looks_and_undiscovered_nodes_are_reported(watched):
     """The count alone misses a compatible publisher replaced by an incompatible one between
     two looks: every FULL_CHECK_EVERY looks each topic is listed anyway.  Endpoints seen before
     their node (several on one topic) are looked at again, nothing raised or lost."""
-    graph = Graph()
-    try:
-        node = AssociationNode(context=graph.context)
-        node.qos_timer.cancel()     # checked by hand here
-        graph.add(node)
-        warnings = []
-        node.qos_watch.warn = warnings.append
-        for attempt in range(6):    # two publishers of a node just started, looked at at once
-            context = Context()
-            rclpy.init(context=context)
-            other = rclpy.create_node(f'driver{attempt}', context=context)
-            for _ in range(2):
-                other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
-            graph.spin_until(lambda: node.count_publishers('/observations') == 2, 5.0)
-            node.qos_watch.check()
-            assert graph.spin_until(
-                lambda: node.qos_watch.check() is None or len(warnings) == 2 * attempt + 2)
-            assert all(f'(node /driver{attempt})' in text for text in warnings[-2:])
-            other.destroy_node()
-            rclpy.shutdown(context=context)
-            assert graph.spin_until(lambda: node.count_publishers('/observations') == 0, 5.0)
-        warnings.clear()
-        # a reliable publisher, looked at, then replaced by a best-effort one: count 1 -> 1
+    graph, node, warnings = watched
+    for attempt in range(6):    # two publishers of a node just started, looked at at once
         context = Context()
         rclpy.init(context=context)
-        other = rclpy.create_node('driver', context=context)
-        reliable = other.create_publisher(PointCloud2, 'observations', 10)
-        assert graph.spin_until(lambda: node.count_publishers('/observations') == 1, 5.0)
-        graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
-        assert warnings == []
-        other.destroy_publisher(reliable)
-        other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
-        assert graph.spin_until(lambda: [info.qos_profile.reliability for info in
-                                         node.get_publishers_info_by_topic('/observations')
-                                         if info.node_name == 'driver'] ==
-                                [qos_profile_sensor_data.reliability], 5.0)
-        for _ in range(FULL_CHECK_EVERY):
-            node.qos_watch.check()
-        assert len(warnings) == 1 and "'/observations' (node /driver)" in warnings[0]
+        other = rclpy.create_node(f'driver{attempt}', context=context)
+        for _ in range(2):
+            other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+        graph.spin_until(lambda: node.count_publishers('/observations') == 2, 5.0)
+        node.qos_watch.check()
+        assert graph.spin_until(
+            lambda: node.qos_watch.check() is None or len(warnings) == 2 * attempt + 2)
+        assert all(f'(node /driver{attempt})' in text for text in warnings[-2:])
         other.destroy_node()
         rclpy.shutdown(context=context)
-    finally:
-        graph.close()
+        assert graph.spin_until(lambda: node.count_publishers('/observations') == 0, 5.0)
+    warnings.clear()
+    # a reliable publisher, looked at, then replaced by a best-effort one: count 1 -> 1
+    context = Context()
+    rclpy.init(context=context)
+    other = rclpy.create_node('driver', context=context)
+    reliable = other.create_publisher(PointCloud2, 'observations', 10)
+    assert graph.spin_until(lambda: node.count_publishers('/observations') == 1, 5.0)
+    graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
+    assert warnings == []
+    other.destroy_publisher(reliable)
+    other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+    assert graph.spin_until(lambda: [info.qos_profile.reliability for info in
+                                     node.get_publishers_info_by_topic('/observations')
+                                     if info.node_name == 'driver'] ==
+                            [qos_profile_sensor_data.reliability], 5.0)
+    for _ in range(FULL_CHECK_EVERY):
+        node.qos_watch.check()
+    assert len(warnings) == 1 and "'/observations' (node /driver)" in warnings[0]
+    other.destroy_node()
+    rclpy.shutdown(context=context)
