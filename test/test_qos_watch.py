@@ -6,14 +6,18 @@ import rclpy
 from geometry_msgs.msg import PoseArray
 from rclpy.context import Context
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from rclpy.duration import Infinite
+from rclpy.qos import (DurabilityPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy,
+                       qos_profile_sensor_data)
 from sensor_msgs.msg import PointCloud2
 
 from data_association_ros.nodes.association_node import AssociationNode
 from data_association_ros.nodes.box_tracker_node import BoxTrackerNode
 from data_association_ros.nodes.ekf_slam_node import EkfSlamNode
 from data_association_ros.nodes.lidar_tracker_node import LidarTrackerNode
-from data_association_ros.nodes.qos_watch import FULL_CHECK_EVERY, QOS_CHECK_PERIOD
+from data_association_ros.nodes import qos_watch
+from data_association_ros.nodes.qos_watch import (FULL_CHECK_EVERY, QOS_CHECK_PERIOD,
+                                                  UNKNOWN_NODE, as_discovered)
 from msg_adapters import array_to_cloud
 from ros_harness import Graph
 
@@ -43,14 +47,14 @@ def test_the_nodes_wait_on_no_event_handlers(node_class):
 
 
 def seen(graph, node, topics) -> bool:
-    """Spin until each topic has another endpoint besides the node's, with its node known."""
+    """Spin until each topic has an endpoint of 'other' and none whose node is unknown yet.
+    (Endpoints of nodes destroyed by an earlier test may linger in the graph until their
+    participant's lease ends: of our own nodes, compatible, they are no reason to wait.)"""
     def known(topic):
-        endpoints = node.get_publishers_info_by_topic(topic) + \
-            node.get_subscriptions_info_by_topic(topic)
-        return len(endpoints) >= 2 and all(info.node_name == 'other' or
-                                           info.node_name == node.get_name()
-                                           for info in endpoints)
-    return graph.spin_until(lambda: all(known(topic) for topic in topics), 5.0)
+        names = [info.node_name for info in node.get_publishers_info_by_topic(topic) +
+                 node.get_subscriptions_info_by_topic(topic)]
+        return 'other' in names and UNKNOWN_NODE not in names
+    return graph.spin_until(lambda: all(known(topic) for topic in topics), 20.0)
 
 
 @pytest.fixture
@@ -102,6 +106,74 @@ def test_incompatible_qos_and_types_reported_once_compatible_ones_not(other, wat
     assert "'/observations' (node /other), offering incompatible QoS" in warnings[3]
     graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
     assert len(warnings) == 4
+
+
+def test_a_manual_by_topic_subscriber_of_our_system_default_liveliness_is_reported(other,
+                                                                                   watched):
+    """Our publishers leave liveliness at SYSTEM_DEFAULT, which Fast DDS makes AUTOMATIC: a
+    MANUAL_BY_TOPIC subscriber receives nothing (an error, not rclpy's "may be" warning)."""
+    graph, node, warnings = watched
+    other.create_subscription(PointCloud2, 'correspondences', lambda msg: None,
+                              QoSProfile(depth=10, liveliness=LivelinessPolicy.MANUAL_BY_TOPIC))
+    other.create_subscription(PointCloud2, 'new_landmarks', lambda msg: None,
+                              QoSProfile(depth=10, liveliness=LivelinessPolicy.AUTOMATIC))
+    assert seen(graph, node, ['/correspondences', '/new_landmarks'])
+    assert node.qos_watch.check() == warnings and len(warnings) == 1
+    assert "'/correspondences' (node /other), requesting incompatible QoS" in warnings[0]
+    assert "Publisher's liveliness is automatic and subscription's is manual by topic" \
+        in warnings[0]
+
+
+def test_an_endpoint_whose_node_never_gets_a_name_is_reported_after_the_wait(
+        other, watched, monkeypatch):
+    """A DDS application that is no ROS node never gets a node name in the graph: its endpoint
+    waits UNKNOWN_NODE_WAIT for one, then is checked without it; once it has left the graph, a
+    full look forgets it."""
+    graph, node, warnings = watched
+    listed = node.get_subscriptions_info_by_topic
+
+    def nameless(topic):    # the real endpoints, 'other' without its name (as DDS-only ones)
+        endpoints = listed(topic)
+        for info in endpoints:
+            if info.node_name == 'other':
+                info.node_name = qos_watch.UNKNOWN_NODE
+        return endpoints
+    subscription = other.create_subscription(
+        PointCloud2, 'correspondences', lambda msg: None,
+        QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    assert seen(graph, node, ['/correspondences'])
+    monkeypatch.setattr(node, 'get_subscriptions_info_by_topic', nameless)
+    assert node.qos_watch.check() == [] and warnings == []    # waiting for its node's name
+    monkeypatch.setattr(qos_watch, 'UNKNOWN_NODE_WAIT', 0.0)
+    assert len(node.qos_watch.check()) == 1 and len(warnings) == 1
+    assert "'/correspondences' (node unknown), requesting incompatible QoS" in warnings[0]
+    assert node.qos_watch.check() == []     # once
+    other.destroy_subscription(subscription)
+    assert graph.spin_until(lambda: node.count_subscribers('/correspondences') == 0, 20.0)
+    for _ in range(FULL_CHECK_EVERY):
+        node.qos_watch.check()
+    assert node.qos_watch._reported == set() and node.qos_watch._unnamed == {}
+
+
+def test_system_default_policies_are_compared_as_the_dds_defaults():
+    mine = QoSProfile(depth=5, reliability=ReliabilityPolicy.SYSTEM_DEFAULT,
+                      durability=DurabilityPolicy.SYSTEM_DEFAULT,
+                      liveliness=LivelinessPolicy.SYSTEM_DEFAULT)
+    for publisher, reliability in ((True, ReliabilityPolicy.RELIABLE),
+                                   (False, ReliabilityPolicy.BEST_EFFORT)):
+        discovered = as_discovered(mine, publisher)
+        assert (discovered.reliability, discovered.durability, discovered.liveliness) == (
+            reliability, DurabilityPolicy.VOLATILE, LivelinessPolicy.AUTOMATIC)
+        assert discovered.deadline == discovered.lifespan == Infinite
+        assert discovered.depth == 5
+    assert mine.liveliness == LivelinessPolicy.SYSTEM_DEFAULT    # not changed in place
+    set_explicitly = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+                                durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                                liveliness=LivelinessPolicy.MANUAL_BY_TOPIC)
+    kept = as_discovered(set_explicitly, True)
+    assert (kept.reliability, kept.durability, kept.liveliness) == (
+        ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.TRANSIENT_LOCAL,
+        LivelinessPolicy.MANUAL_BY_TOPIC)
 
 
 def test_a_best_effort_node_takes_a_reliable_publisher_and_the_timer_reports_by_itself(other):

@@ -8,16 +8,19 @@ nodes therefore create their endpoints without them (ParameterizedNode), and Qos
 called every QOS_CHECK_PERIOD, warns instead: each topic's endpoint count is read (a cheap call)
 and, where it changed (and every FULL_CHECK_EVERY looks), the endpoints are listed and checked
 with rclpy.qos.qos_check_compatible and by type name.  Each incompatible endpoint is reported
-once; one whose node is not discovered yet is looked at again the next time.
+once; one whose node is not discovered yet is looked at again the next time (for up
+to UNKNOWN_NODE_WAIT seconds, then it is checked without its node's name).
 """
 from __future__ import annotations
 
 import copy
+import time
 from typing import Callable
 
 from rclpy.duration import Infinite
 from rclpy.node import Node
-from rclpy.qos import QoSCompatibility, QoSProfile, qos_check_compatible
+from rclpy.qos import (DurabilityPolicy, LivelinessPolicy, QoSCompatibility, QoSProfile,
+                       ReliabilityPolicy, qos_check_compatible)
 
 QOS_CHECK_PERIOD = 2.0
 """Seconds between two looks at the graph."""
@@ -26,15 +29,29 @@ FULL_CHECK_EVERY = 5
 endpoint replaced by another between two looks leaves the count as it was."""
 UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'
 """The node name the graph gives an endpoint whose node it has not discovered yet."""
+UNKNOWN_NODE_WAIT = 10.0
+"""Seconds an endpoint whose node is unknown waits for it: then it is checked without its node's
+name (a DDS application that is no ROS node never gets one)."""
 
 
-def as_discovered(profile: QoSProfile) -> QoSProfile:
-    """`profile` as the graph reports an endpoint's: the durations left at 0 (the default:
-    none) are Infinite there, and qos_check_compatible must not take 0 for a deadline."""
+def as_discovered(profile: QoSProfile, publisher: bool) -> QoSProfile:
+    """`profile` (one of ours) as the graph reports an endpoint's, so qos_check_compatible
+    compares what DDS applies: the durations left at 0 (the default: none) are Infinite there
+    (0 is not a deadline), and each SYSTEM_DEFAULT policy is the DDS default that Fast DDS
+    applies (liveliness AUTOMATIC, durability VOLATILE, reliability RELIABLE for a publisher
+    and BEST_EFFORT for a subscription); else a MANUAL_BY_TOPIC subscriber of an AUTOMATIC
+    publisher, which receives nothing, would be only a "may be incompatible" warning."""
     discovered = copy.copy(profile)
     for name in ('deadline', 'lifespan', 'liveliness_lease_duration'):
         if getattr(discovered, name).nanoseconds == 0:
             setattr(discovered, name, Infinite)
+    if discovered.liveliness == LivelinessPolicy.SYSTEM_DEFAULT:
+        discovered.liveliness = LivelinessPolicy.AUTOMATIC
+    if discovered.durability == DurabilityPolicy.SYSTEM_DEFAULT:
+        discovered.durability = DurabilityPolicy.VOLATILE
+    if discovered.reliability == ReliabilityPolicy.SYSTEM_DEFAULT:
+        discovered.reliability = (ReliabilityPolicy.RELIABLE if publisher
+                                  else ReliabilityPolicy.BEST_EFFORT)
     return discovered
 
 
@@ -53,15 +70,19 @@ class QosWatch:
         self._counts: dict[tuple[str, str], int] = {}
         self._looks = 0
         self._reported: set[tuple[str, bytes, str]] = set()   # (topic, gid, 'qos' / 'type')
+        self._unnamed: dict[tuple[str, bytes], float] = {}  # (topic, gid): first seen nameless
+        self._listed: set[tuple[str, bytes]] = set()   # (topic, gid) listed in this look
 
     def check(self) -> list[str]:
         """Look at the topics whose endpoint counts changed (every topic every
         FULL_CHECK_EVERY looks); warn about (and return) the incompatibilities not reported
-        before."""
+        before.  A full look also forgets the endpoints no longer in the graph."""
         node = self.node
         self._looks += 1
-        if self._looks % FULL_CHECK_EVERY == 0:
+        full = self._looks % FULL_CHECK_EVERY == 0
+        if full:
             self._counts.clear()
+        self._listed = set()
         found = []
         for subscription in node.subscriptions:
             found += self._check_topic(
@@ -69,37 +90,49 @@ class QosWatch:
                 node.get_publishers_info_by_topic,
                 lambda info, own=subscription: self._compare(
                     info, own.topic_name, own.msg_type, info.qos_profile,
-                    as_discovered(own.qos_profile), 'publisher', 'offering', 'received from'))
+                    as_discovered(own.qos_profile, publisher=False), 'publisher', 'offering',
+                    'received from'))
         for publisher in node.publishers:
             found += self._check_topic(
                 'subscriptions', publisher.topic_name, node.count_subscribers,
                 node.get_subscriptions_info_by_topic,
                 lambda info, own=publisher: self._compare(
-                    info, own.topic_name, own.msg_type, as_discovered(own.qos_profile),
-                    info.qos_profile, 'subscription', 'requesting', 'sent to'))
+                    info, own.topic_name, own.msg_type,
+                    as_discovered(own.qos_profile, publisher=True), info.qos_profile,
+                    'subscription', 'requesting', 'sent to'))
+        if full:
+            self._reported = {key for key in self._reported if key[:2] in self._listed}
+            self._unnamed = {key: t for key, t in self._unnamed.items() if key in self._listed}
         for text in found:
             self.warn(text)
         return found
 
     def _check_topic(self, kind: str, topic: str, count, endpoints, compare) -> list[str]:
         """The new problems with the `kind` endpoints on `topic` when their count changed; an
-        endpoint whose node is not discovered yet is looked at again next time."""
+        endpoint whose node is not discovered yet is looked at again next time (for up to
+        UNKNOWN_NODE_WAIT s)."""
         number = count(topic)
         if self._counts.get((kind, topic)) == number:
             return []
         self._counts[(kind, topic)] = number
         found = []
         for info in endpoints(topic):
+            key = (topic, bytes(info.endpoint_gid))
+            self._listed.add(key)
             if info.node_name == UNKNOWN_NODE:
-                self._counts.pop((kind, topic), None)
-                continue
+                first = self._unnamed.setdefault(key, time.monotonic())
+                if time.monotonic() - first < UNKNOWN_NODE_WAIT:
+                    self._counts.pop((kind, topic), None)
+                    continue
             found += compare(info)
         return found
 
     def _compare(self, info, topic: str, own_type, publisher_qos, subscription_qos, other: str,
                  verb: str, direction: str) -> list[str]:
         """The new problems between one of ours and the endpoint `info` (rclpy's wording)."""
-        where = f"on topic '{topic}' (node {info.node_namespace.rstrip('/')}/{info.node_name})"
+        node = ('unknown' if info.node_name == UNKNOWN_NODE else
+                f"{info.node_namespace.rstrip('/')}/{info.node_name}")
+        where = f"on topic '{topic}' (node {node})"
         if info.topic_type != type_name(own_type):
             problem = 'type', (f'Incompatible type {where}: {info.topic_type}, not '
                                f'{type_name(own_type)}; no messages will be {direction} it.')
