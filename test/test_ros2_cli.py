@@ -130,6 +130,27 @@ def stop(process: subprocess.Popen) -> None:
     process.wait()
 
 
+def stacks(process: subprocess.Popen, limit: int = 12000) -> str:
+    """Where each process of `process`'s group is stuck (gdb: the Python stack of its main
+    thread, every thread's native stack), for the report of a hang; '' without gdb."""
+    if shutil.which('gdb') is None:
+        return ''
+    listed = subprocess.run(['pgrep', '-g', str(process.pid)], capture_output=True, text=True)
+    report = []
+    for pid in listed.stdout.split():
+        try:
+            command = Path(f'/proc/{pid}/cmdline').read_bytes().replace(b'\0', b' ').decode()
+            traced = subprocess.run(
+                ['gdb', '-p', pid, '-batch', '-iex', 'set auto-load safe-path /', '-ex',
+                 'thread 1', '-ex', 'py-bt', '-ex', 'thread apply all bt 10'],
+                capture_output=True, text=True, timeout=60).stdout
+        except (OSError, subprocess.TimeoutExpired) as error:
+            traced = repr(error)
+        traced = '\n'.join(line for line in traced.splitlines() if '[New LWP' not in line)
+        report.append(f'--- {pid}: {command}\n{traced[:limit]}')
+    return '\n'.join(report)
+
+
 def interrupt(process: subprocess.Popen, log: Path) -> str:
     """SIGINT to `process` and its children (Ctrl-C in its terminal); its log once it has
     ended with exit code 0."""
@@ -137,8 +158,10 @@ def interrupt(process: subprocess.Popen, log: Path) -> str:
     try:
         code = process.wait(timeout=DOWN_S)
     except subprocess.TimeoutExpired:
+        where = stacks(process)
         stop(process)
-        raise AssertionError(f'still running {DOWN_S} s after SIGINT:\n{log.read_text()}')
+        raise AssertionError(f'still running {DOWN_S} s after SIGINT:\n{log.read_text()}\n'
+                             f'{where}')
     text = log.read_text(errors='replace')
     assert code == 0, text
     assert 'Traceback' not in text, text
