@@ -4,7 +4,8 @@ processes (a shared machine's speed drifts: each round times every checkout once
     git worktree add /tmp/before <commit>
     python benchmarks/compare_checkouts.py /tmp/before --algorithm jcbb --rounds 5
 
-Scans: the clutter_range_bearing bag's scans (those of run_benchmarks' jcbb section).  Per round
+Scans (--scans): the clutter_range_bearing bag's scans (bag, the default) or the 12 denser
+random scans (dense), those of run_benchmarks' jcbb section.  Per round
 and checkout: the minimum of 7 calls per scan, then the median and the sum over the scans;
 printed: the median over the rounds of both, and each checkout's ratio to this one.
 """
@@ -22,14 +23,16 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
-def measure(algorithm: str) -> dict:
-    """Per-scan minima over the bag's scans with the package on sys.path (child process)."""
+def measure(algorithm: str, scans: str) -> dict:
+    """Per-scan minima over `scans` ('bag' or 'dense') with the package on sys.path (child
+    process)."""
     sys.path[:0] = [str(HERE), str(HERE.parent / 'test')]
     import numpy as np
-    from run_benchmarks import bag_scenes
+    from run_benchmarks import bag_scenes, hard_scans
 
     from data_association_ros.core.api import associate
-    inputs = [scene.inputs() for scene in bag_scenes((2, 5))]
+    scenes = bag_scenes((2, 5)) if scans == 'bag' else hard_scans(12)
+    inputs = [scene.inputs() for scene in scenes]
     for each in inputs:
         associate(**each, algorithm=algorithm)
     minima = []
@@ -48,10 +51,12 @@ def main() -> None:
     parser.add_argument('checkouts', nargs='*', help='other checkouts (repository roots)')
     parser.add_argument('--algorithm', default='jcbb')
     parser.add_argument('--rounds', type=int, default=5)
+    parser.add_argument('--scans', choices=['bag', 'dense'], default='bag',
+                        help="the clutter_range_bearing bag's scans or 12 denser random ones")
     parser.add_argument('--child', action='store_true', help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        print(json.dumps(measure(args.algorithm)))
+        print(json.dumps(measure(args.algorithm, args.scans)))
         return
     roots = [str(HERE.parent)] + [str(Path(c).resolve()) for c in args.checkouts]
     results: dict[str, list[dict]] = {root: [] for root in roots}
@@ -59,12 +64,13 @@ def main() -> None:
         for root in roots:
             environment = {**os.environ, 'PYTHONPATH': root}
             output = subprocess.run([sys.executable, __file__, '--child', '--algorithm',
-                                     args.algorithm], env=environment, cwd=root, check=True,
+                                     args.algorithm, '--scans', args.scans], env=environment, cwd=root, check=True,
                                     capture_output=True, text=True).stdout
             results[root].append(json.loads(output.strip().splitlines()[-1]))
     mine = {key: statistics.median(r[key] for r in results[roots[0]])
             for key in ('median_ms', 'total_ms')}
-    print(f'{args.algorithm}, clutter_range_bearing scans, {args.rounds} alternating rounds')
+    name = 'clutter_range_bearing' if args.scans == 'bag' else 'dense random'
+    print(f'{args.algorithm}, {name} scans, {args.rounds} alternating rounds')
     print(f'{"checkout":<40}{"median ms":>11}{"total ms":>10}{"median x":>10}{"total x":>9}')
     for root in roots:
         median = statistics.median(r['median_ms'] for r in results[root])
