@@ -1,5 +1,9 @@
 """The nodes' endpoints carry no event handlers; QosWatch reports, from the graph, the
 incompatible QoS and types rclpy's default handlers reported (real rclpy, loopback DDS)."""
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import rclpy
@@ -155,25 +159,84 @@ def test_an_endpoint_whose_node_never_gets_a_name_is_reported_after_the_wait(
     assert node.qos_watch._reported == set() and node.qos_watch._unnamed == {}
 
 
-def test_system_default_policies_are_compared_as_the_dds_defaults():
-    mine = QoSProfile(depth=5, reliability=ReliabilityPolicy.SYSTEM_DEFAULT,
-                      durability=DurabilityPolicy.SYSTEM_DEFAULT,
-                      liveliness=LivelinessPolicy.SYSTEM_DEFAULT)
-    for publisher, reliability in ((True, ReliabilityPolicy.RELIABLE),
-                                   (False, ReliabilityPolicy.BEST_EFFORT)):
-        discovered = as_discovered(mine, publisher)
-        assert (discovered.reliability, discovered.durability, discovered.liveliness) == (
-            reliability, DurabilityPolicy.VOLATILE, LivelinessPolicy.AUTOMATIC)
-        assert discovered.deadline == discovered.lifespan == Infinite
-        assert discovered.depth == 5
-    assert mine.liveliness == LivelinessPolicy.SYSTEM_DEFAULT    # not changed in place
-    set_explicitly = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
-                                durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                                liveliness=LivelinessPolicy.MANUAL_BY_TOPIC)
-    kept = as_discovered(set_explicitly, True)
+def test_system_default_policies_are_compared_as_fast_dds_applies_them(watched):
+    """as_discovered gives what the graph reports for our own endpoints with every policy left
+    to the system (Fast DDS: a writer reliable and transient local, a reader best effort and
+    volatile, liveliness automatic)."""
+    graph, node, _ = watched
+    unset = QoSProfile(depth=5, reliability=ReliabilityPolicy.SYSTEM_DEFAULT,
+                       durability=DurabilityPolicy.SYSTEM_DEFAULT,
+                       liveliness=LivelinessPolicy.SYSTEM_DEFAULT)
+    node.create_publisher(PointCloud2, 'unset_out', unset)
+    node.create_subscription(PointCloud2, 'unset_in', lambda msg: None, unset)
+    assert graph.spin_until(lambda: node.get_publishers_info_by_topic('/unset_out') and
+                            node.get_subscriptions_info_by_topic('/unset_in'))
+    for publisher, listed in ((True, node.get_publishers_info_by_topic('/unset_out')),
+                              (False, node.get_subscriptions_info_by_topic('/unset_in'))):
+        applied = listed[0].qos_profile
+        ours = as_discovered(unset, publisher)
+        assert (ours.reliability, ours.durability, ours.liveliness) == (
+            applied.reliability, applied.durability, applied.liveliness), publisher
+        assert (ours.deadline, ours.lifespan, ours.liveliness_lease_duration) == (
+            applied.deadline, applied.lifespan, applied.liveliness_lease_duration)
+        assert ours.depth == 5
+    assert unset.liveliness == LivelinessPolicy.SYSTEM_DEFAULT    # not changed in place
+    explicit = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+                          durability=DurabilityPolicy.VOLATILE,
+                          liveliness=LivelinessPolicy.MANUAL_BY_TOPIC)
+    kept = as_discovered(explicit, True)
     assert (kept.reliability, kept.durability, kept.liveliness) == (
-        ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.TRANSIENT_LOCAL,
+        ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.VOLATILE,
         LivelinessPolicy.MANUAL_BY_TOPIC)
+
+
+MANUAL_BY_PARTICIPANT_PROFILES = """<?xml version="1.0" encoding="UTF-8" ?>
+<profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <data_reader profile_name="/correspondences">
+    <qos><liveliness><kind>MANUAL_BY_PARTICIPANT</kind></liveliness></qos>
+  </data_reader>
+  <data_writer profile_name="/observations">
+    <qos><liveliness><kind>MANUAL_BY_PARTICIPANT</kind></liveliness></qos>
+  </data_writer>
+</profiles>
+"""
+
+
+def test_a_manual_by_participant_subscriber_set_in_fast_dds_xml_is_reported(watched,
+                                                                           tmp_path):
+    """The graph reports MANUAL_BY_PARTICIPANT (set in a Fast DDS XML profile, as DDS-level
+    configurations do) as UNKNOWN, which qos_check_compatible only calls a "may be": a reader
+    of that kind gets nothing from our automatic publisher (reported), a writer of it serves
+    our automatic subscription (not reported)."""
+    graph, node, warnings = watched
+    profiles = tmp_path / 'profiles.xml'
+    profiles.write_text(MANUAL_BY_PARTICIPANT_PROFILES)
+    script = (
+        'import rclpy, time\n'
+        'from sensor_msgs.msg import PointCloud2\n'
+        'rclpy.init(); node = rclpy.create_node("dds_configured")\n'
+        'node.create_subscription(PointCloud2, "correspondences", lambda msg: None, 10)\n'
+        'node.create_publisher(PointCloud2, "observations", 10)\n'
+        'end = time.monotonic() + 60\n'
+        'while time.monotonic() < end: rclpy.spin_once(node, timeout_sec=0.1)\n')
+    environment = {**os.environ, 'RMW_FASTRTPS_USE_QOS_FROM_XML': '1',
+                   'FASTRTPS_DEFAULT_PROFILES_FILE': str(profiles)}
+    process = subprocess.Popen([sys.executable, '-c', script], env=environment)
+    try:
+        def listed(topic, endpoints):
+            return [info for info in endpoints(topic) if info.node_name == 'dds_configured']
+        assert graph.spin_until(
+            lambda: listed('/correspondences', node.get_subscriptions_info_by_topic) and
+            listed('/observations', node.get_publishers_info_by_topic), 30.0)
+        assert listed('/correspondences', node.get_subscriptions_info_by_topic)[
+            0].qos_profile.liveliness == LivelinessPolicy.UNKNOWN
+        assert node.qos_watch.check() == warnings and len(warnings) == 1
+        assert "'/correspondences' (node /dds_configured), requesting incompatible QoS" \
+            in warnings[0]
+        assert 'manual by participant' in warnings[0]
+    finally:
+        process.kill()
+        process.wait()
 
 
 def test_a_best_effort_node_takes_a_reliable_publisher_and_the_timer_reports_by_itself(other):
@@ -212,21 +275,21 @@ def test_a_publisher_replaced_between_two_looks_and_undiscovered_nodes_are_repor
         other = rclpy.create_node(f'driver{attempt}', context=context)
         for _ in range(2):
             other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
-        graph.spin_until(lambda: node.count_publishers('/observations') == 2, 5.0)
+        graph.spin_until(lambda: node.count_publishers('/observations') == 2, 20.0)
         node.qos_watch.check()
         assert graph.spin_until(
             lambda: node.qos_watch.check() is None or len(warnings) == 2 * attempt + 2)
         assert all(f'(node /driver{attempt})' in text for text in warnings[-2:])
         other.destroy_node()
         rclpy.shutdown(context=context)
-        assert graph.spin_until(lambda: node.count_publishers('/observations') == 0, 5.0)
+        assert graph.spin_until(lambda: node.count_publishers('/observations') == 0, 20.0)
     warnings.clear()
     # a reliable publisher, looked at, then replaced by a best-effort one: count 1 -> 1
     context = Context()
     rclpy.init(context=context)
     other = rclpy.create_node('driver', context=context)
     reliable = other.create_publisher(PointCloud2, 'observations', 10)
-    assert graph.spin_until(lambda: node.count_publishers('/observations') == 1, 5.0)
+    assert graph.spin_until(lambda: node.count_publishers('/observations') == 1, 20.0)
     graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
     assert warnings == []
     other.destroy_publisher(reliable)

@@ -37,10 +37,10 @@ name (a DDS application that is no ROS node never gets one)."""
 def as_discovered(profile: QoSProfile, publisher: bool) -> QoSProfile:
     """`profile` (one of ours) as the graph reports an endpoint's, so qos_check_compatible
     compares what DDS applies: the durations left at 0 (the default: none) are Infinite there
-    (0 is not a deadline), and each SYSTEM_DEFAULT policy is the DDS default that Fast DDS
-    applies (liveliness AUTOMATIC, durability VOLATILE, reliability RELIABLE for a publisher
-    and BEST_EFFORT for a subscription); else a MANUAL_BY_TOPIC subscriber of an AUTOMATIC
-    publisher, which receives nothing, would be only a "may be incompatible" warning."""
+    (0 is not a deadline), and each SYSTEM_DEFAULT policy is what Fast DDS applies (a writer:
+    reliable, transient local; a reader: best effort, volatile; both: liveliness automatic);
+    else a MANUAL_BY_TOPIC subscriber of an automatic publisher, which receives nothing, would
+    be only a "may be incompatible" warning."""
     discovered = copy.copy(profile)
     for name in ('deadline', 'lifespan', 'liveliness_lease_duration'):
         if getattr(discovered, name).nanoseconds == 0:
@@ -48,11 +48,27 @@ def as_discovered(profile: QoSProfile, publisher: bool) -> QoSProfile:
     if discovered.liveliness == LivelinessPolicy.SYSTEM_DEFAULT:
         discovered.liveliness = LivelinessPolicy.AUTOMATIC
     if discovered.durability == DurabilityPolicy.SYSTEM_DEFAULT:
-        discovered.durability = DurabilityPolicy.VOLATILE
+        discovered.durability = (DurabilityPolicy.TRANSIENT_LOCAL if publisher
+                                 else DurabilityPolicy.VOLATILE)
     if discovered.reliability == ReliabilityPolicy.SYSTEM_DEFAULT:
         discovered.reliability = (ReliabilityPolicy.RELIABLE if publisher
                                   else ReliabilityPolicy.BEST_EFFORT)
     return discovered
+
+
+def compatibility(publisher: QoSProfile, subscription: QoSProfile) -> tuple[bool, str]:
+    """(whether DDS refuses the match, rclpy's reason).  qos_check_compatible, plus the one
+    case it only calls a "may be": the graph reports a MANUAL_BY_PARTICIPANT subscription's
+    liveliness as UNKNOWN, and an automatic publisher cannot serve it (DDS orders the kinds
+    automatic < manual by participant < manual by topic)."""
+    verdict, reason = qos_check_compatible(publisher, subscription)
+    if verdict == QoSCompatibility.ERROR:
+        return True, reason
+    if (subscription.liveliness == LivelinessPolicy.UNKNOWN
+            and publisher.liveliness == LivelinessPolicy.AUTOMATIC):
+        return True, ("ERROR: Publisher's liveliness is automatic and subscription's is "
+                      "unknown (manual by participant, which only a manual publisher serves);")
+    return False, reason
 
 
 def type_name(msg_type) -> str:
@@ -137,8 +153,8 @@ class QosWatch:
             problem = 'type', (f'Incompatible type {where}: {info.topic_type}, not '
                                f'{type_name(own_type)}; no messages will be {direction} it.')
         else:
-            compatibility, reason = qos_check_compatible(publisher_qos, subscription_qos)
-            if compatibility != QoSCompatibility.ERROR:
+            refused, reason = compatibility(publisher_qos, subscription_qos)
+            if not refused:
                 return []
             problem = 'qos', (f'New {other} discovered {where}, {verb} incompatible QoS. '
                               f'No messages will be {direction} it. {reason}')
