@@ -21,6 +21,8 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+SCANS = {'bag': 'clutter_range_bearing', 'dense': 'dense random'}
+"""--scans: the scan set's name."""
 
 
 def measure(algorithm: str, scans: str) -> dict:
@@ -51,7 +53,7 @@ def main() -> None:
     parser.add_argument('checkouts', nargs='*', help='other checkouts (repository roots)')
     parser.add_argument('--algorithm', default='jcbb')
     parser.add_argument('--rounds', type=int, default=5)
-    parser.add_argument('--scans', choices=['bag', 'dense'], default='bag',
+    parser.add_argument('--scans', choices=list(SCANS), default='bag',
                         help="the clutter_range_bearing bag's scans or 12 denser random ones")
     parser.add_argument('--child', action='store_true', help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -64,13 +66,12 @@ def main() -> None:
         for root in roots:
             environment = {**os.environ, 'PYTHONPATH': root}
             output = subprocess.run([sys.executable, __file__, '--child', '--algorithm',
-                                     args.algorithm, '--scans', args.scans], env=environment, cwd=root, check=True,
-                                    capture_output=True, text=True).stdout
+                                     args.algorithm, '--scans', args.scans], env=environment,
+                                    cwd=root, check=True, capture_output=True, text=True).stdout
             results[root].append(json.loads(output.strip().splitlines()[-1]))
     mine = {key: statistics.median(r[key] for r in results[roots[0]])
             for key in ('median_ms', 'total_ms')}
-    name = 'clutter_range_bearing' if args.scans == 'bag' else 'dense random'
-    print(f'{args.algorithm}, {name} scans, {args.rounds} alternating rounds')
+    print(f'{args.algorithm}, {SCANS[args.scans]} scans, {args.rounds} alternating rounds')
     print(f'{"checkout":<40}{"median ms":>11}{"total ms":>10}{"median x":>10}{"total x":>9}')
     for root in roots:
         median = statistics.median(r['median_ms'] for r in results[root])

@@ -10,7 +10,6 @@ import rclpy
 from geometry_msgs.msg import PoseArray
 from rclpy.context import Context
 from rclpy.parameter import Parameter
-from rclpy.duration import Infinite
 from rclpy.qos import (DurabilityPolicy, LivelinessPolicy, QoSProfile, ReliabilityPolicy,
                        qos_profile_sensor_data)
 from sensor_msgs.msg import PointCloud2
@@ -140,7 +139,7 @@ def test_an_endpoint_whose_node_never_gets_a_name_is_reported_after_the_wait(
         endpoints = listed(topic)
         for info in endpoints:
             if info.node_name == 'other':
-                info.node_name = qos_watch.UNKNOWN_NODE
+                info.node_name = UNKNOWN_NODE
         return endpoints
     subscription = other.create_subscription(
         PointCloud2, 'correspondences', lambda msg: None,

@@ -87,7 +87,6 @@ class QosWatch:
         self._looks = 0
         self._reported: set[tuple[str, bytes, str]] = set()   # (topic, gid, 'qos' / 'type')
         self._unnamed: dict[tuple[str, bytes], float] = {}  # (topic, gid): first seen nameless
-        self._listed: set[tuple[str, bytes]] = set()   # (topic, gid) listed in this look
 
     def check(self) -> list[str]:
         """Look at the topics whose endpoint counts changed (every topic every
@@ -98,11 +97,12 @@ class QosWatch:
         full = self._looks % FULL_CHECK_EVERY == 0
         if full:
             self._counts.clear()
-        self._listed = set()
+        listed: set[tuple[str, bytes]] = set()   # (topic, gid) of the endpoints listed
+        now = time.monotonic()
         found = []
         for subscription in node.subscriptions:
             found += self._check_topic(
-                'publishers', subscription.topic_name, node.count_publishers,
+                listed, now, 'publishers', subscription.topic_name, node.count_publishers,
                 node.get_publishers_info_by_topic,
                 lambda info, own=subscription: self._compare(
                     info, own.topic_name, own.msg_type, info.qos_profile,
@@ -110,23 +110,25 @@ class QosWatch:
                     'received from'))
         for publisher in node.publishers:
             found += self._check_topic(
-                'subscriptions', publisher.topic_name, node.count_subscribers,
+                listed, now, 'subscriptions', publisher.topic_name, node.count_subscribers,
                 node.get_subscriptions_info_by_topic,
                 lambda info, own=publisher: self._compare(
                     info, own.topic_name, own.msg_type,
                     as_discovered(own.qos_profile, publisher=True), info.qos_profile,
                     'subscription', 'requesting', 'sent to'))
         if full:
-            self._reported = {key for key in self._reported if key[:2] in self._listed}
-            self._unnamed = {key: t for key, t in self._unnamed.items() if key in self._listed}
+            self._reported = {key for key in self._reported if key[:2] in listed}
+            self._unnamed = {key: t for key, t in self._unnamed.items() if key in listed}
         for text in found:
             self.warn(text)
         return found
 
-    def _check_topic(self, kind: str, topic: str, count, endpoints, compare) -> list[str]:
-        """The new problems with the `kind` endpoints on `topic` when their count changed; an
-        endpoint whose node is not discovered yet is looked at again next time (for up to
-        UNKNOWN_NODE_WAIT s)."""
+    def _check_topic(self, listed: set, now: float, kind: str, topic: str, count, endpoints,
+                     compare) -> list[str]:
+        """The new problems with the `kind` endpoints on `topic` when their count changed
+        (each endpoint listed is added to `listed`); an endpoint whose node is not discovered
+        yet is looked at again next time (for up to UNKNOWN_NODE_WAIT s after `now` first saw
+        it)."""
         number = count(topic)
         if self._counts.get((kind, topic)) == number:
             return []
@@ -134,10 +136,9 @@ class QosWatch:
         found = []
         for info in endpoints(topic):
             key = (topic, bytes(info.endpoint_gid))
-            self._listed.add(key)
+            listed.add(key)
             if info.node_name == UNKNOWN_NODE:
-                first = self._unnamed.setdefault(key, time.monotonic())
-                if time.monotonic() - first < UNKNOWN_NODE_WAIT:
+                if now - self._unnamed.setdefault(key, now) < UNKNOWN_NODE_WAIT:
                     self._counts.pop((kind, topic), None)
                     continue
             found += compare(info)
