@@ -171,7 +171,8 @@ class ObjectTrack:
     centre), rectangle length and width [m], last cluster centroid in the object frame (anchor),
     update count, time [s] and posterior (x, y, yaw) of the last update, and this scan's matched
     scan points; continues: it took over an older track's id; swung [rad]: the net heading
-    change by the corrections since the rectangle was last fitted (EXTENT_SWING)."""
+    change by the corrections since the rectangle was last fitted (EXTENT_SWING); published:
+    it has been reported (its id has been seen)."""
 
     id: int
     filter: KalmanFilter | InteractingModels
@@ -188,6 +189,7 @@ class ObjectTrack:
     votes: int = 0
     continues: bool = False
     swung: float = 0.0
+    published: bool = False
 
     def continue_from(self, old: 'ObjectTrack') -> None:
         """Take over old's id (the same object, found again by this track)."""
@@ -246,8 +248,12 @@ class LidarObjectTracker:
         that have been tracked for SETTLE_TIME, unless their velocity is voting to turn them
         (the heading they have is then known to be wrong: f1tenth_moving seed 325 object 2,
         hidden while its votes were counted, was reported pointing backwards)."""
-        return [t for t in self.tracks if t.hits >= self.config.min_hits
-                and (t.settled or (self.time - t.born >= SETTLE_TIME and not turning(t)))]
+        return [t for t in self.tracks if self._reportable(t)]
+
+    def _reportable(self, track: ObjectTrack) -> bool:
+        """Whether `track` is reported now (reported's rule)."""
+        return track.hits >= self.config.min_hits and (
+            track.settled or (self.time - track.born >= SETTLE_TIME and not turning(track)))
 
     def step(self, points: np.ndarray, time: float, sensor: Optional[np.ndarray] = None,
              offsets: Optional[np.ndarray] = None,
@@ -332,7 +338,10 @@ class LidarObjectTracker:
                     self._found_again(started, time, before, lost.get(cluster))
                 if old is not None:
                     self._hand_over(old, started)
-        return self.reported()
+        reported = self.reported()
+        for track in reported:
+            track.published = True
+        return reported
 
     def _found_again(self, new: ObjectTrack, time: float, before: Optional[float],
                      taken: Optional[ObjectTrack]) -> Optional[ObjectTrack]:
@@ -393,20 +402,32 @@ class LidarObjectTracker:
         return min(gated, key=lambda pair: pair[0])[1] if gated else None
 
     def _continue_confirmed(self, time: float) -> None:
-        """A track confirmed at `time` (its min_hits-th update, not itself continuing another)
-        that is within _same_object's gate of a confirmed track born before it and not updated
-        at `time` continues it: it takes the nearest (least d2) such track's id, and that track
-        is dropped (a young track started beside a coasting one took the object's returns when
-        they came back)."""
+        """A track confirmed at `time` (its min_hits-th update), or reported for the first time
+        at `time`, not itself continuing another, that is within _same_object's gate of a
+        confirmed track born before it and not updated at `time` continues it: it takes the
+        nearest (least d2) such track's id, and that track is dropped (a young track started
+        beside a coasting one took the object's returns when they came back).  The first report
+        counts too: a track whose heading is still voting is not reported, so its id has not
+        been seen (car_static seeds 1098 object 4 and 1106 object 4: a car's front face coming
+        out of an occlusion, or its returns thinning at the range limit, was fitted 90 deg off,
+        its centre 2 m from the coasting track's at confirmation; turned by its velocity two
+        scans later, it lay on the old track, which it dropped as a duplicate, and the car took
+        the new id)."""
         config = self.config
-        for young in [t for t in self.tracks if t.updated == time and t.hits == config.min_hits
-                      and not t.continues]:
+        for young in [t for t in self.tracks if t.updated == time and not t.continues
+                      and self._id_still_open(t)]:
             old = self._nearest_same_object(young, [
                 t for t in self.tracks
                 if t.updated < time and t.born < young.born and t.hits >= config.min_hits])
             if old is not None:
                 young.continue_from(old)
                 self.tracks = [t for t in self.tracks if t is not old]
+
+    def _id_still_open(self, track: ObjectTrack) -> bool:
+        """Whether `track`, updated now, may still continue an older track's id
+        (_continue_confirmed): this is its min_hits-th update, or its first report."""
+        return track.hits == self.config.min_hits or (
+            not track.published and self._reportable(track))
 
     def _hidden(self, track: ObjectTrack) -> bool:
         """Whether the track's predicted rectangle is hidden in this scan: at least
