@@ -434,10 +434,35 @@ def test_young_track_beside_a_coasting_one_continues_its_id():
     far = _track(4, [9.0, -6.0, 0, -7, 0, 0], [0.01] * 6, 100, 0.3)
     young = _track(9, [1.3, 0.4, 0, -6.5, -1, 0], [0.01, 0.01, 0.01, 1, 1, 1],
                    config.min_hits, 1.0, born=0.5)
+    for track in (coasting, updated, far):
+        track.published = True
     tracker.tracks = [coasting, updated, far, young]
     tracker._continue_confirmed(1.0)
     assert young.id == 2 and young.continues
     assert [t.id for t in tracker.tracks] == [3, 4, 2]
+
+
+@pytest.mark.parametrize('published, settled, continues', [
+    (False, True, True),     # first reported now: its id is still open
+    (True, True, False),     # reported before: its id has been seen, it keeps it
+    (False, False, False)])  # not reportable yet (heading voting, younger than SETTLE_TIME)
+def test_a_track_past_min_hits_continues_an_id_only_at_its_first_report(published, settled,
+                                                                        continues):
+    """The young track of the test above, but updated min_hits + 2 times (it was not
+    reported at its min_hits-th update): it continues the coasting track's id when it is
+    reported for the first time now (settled, never published), not when it has been reported
+    before or is not reported now."""
+    config = configuration('f1tenth_static', TrackerConfig())
+    tracker = LidarObjectTracker(config)
+    coasting = _track(2, [1.0, 1.0, 0, -7, 1, 0], [2, 5, 1, 9, 30, 1], 100, 0.2)
+    coasting.published = True
+    young = _track(9, [1.3, 0.4, 0, -6.5, -1, 0], [0.01, 0.01, 0.01, 1, 1, 1],
+                   config.min_hits + 2, 1.0, born=0.8)
+    young.published, young.settled = published, settled
+    tracker.tracks = [coasting, young]
+    tracker._continue_confirmed(1.0)
+    assert (young.id, young.continues) == ((2, True) if continues else (9, False))
+    assert [t.id for t in tracker.tracks] == ([2] if continues else [2, 9])
 
 
 def test_a_new_track_is_found_again_as_the_nearest_gated_track():
@@ -669,6 +694,6 @@ def test_a_track_first_reported_on_a_coasting_track_continues_its_id(monkeypatch
     assert len(result.track_ids) == 1 and result.id_switches == 0, result
     assert result.position_rmse < 0.3 and result.velocity_rmse < 0.8, result
     monkeypatch.setattr(object_tracker.LidarObjectTracker, '_id_still_open',
-                        lambda self, track: track.hits == self.config.min_hits)
+                        lambda self, track, time: track.hits == self.config.min_hits)
     before = score(scans, run_offline(scans, config)[0])[4]
     assert before.id_switches >= 1, before

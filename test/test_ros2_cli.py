@@ -45,6 +45,7 @@ class Tools:
     def __init__(self, setup: Path, env: dict[str, str]) -> None:
         self.setup = setup
         self.env = env
+        self.started: list[subprocess.Popen] = []
 
     def argv(self, command: str) -> list[str]:
         return ['bash', '-c', f'source {shlex.quote(str(self.setup))} && exec {command}']
@@ -60,27 +61,46 @@ class Tools:
         once more, with a warning, when a call gets no answer in PARAM_S: ros2param waits for
         a service response without a timeout, and DDS can lose one (a response written before
         the server has discovered the new client's reader; ros2/system_tests#420).  A node
-        that does not answer fails the second call too."""
+        that does not answer fails the second call too, with where the call and the processes
+        `start` started were stuck."""
         deadline = time.monotonic() + UP_S
         lost = 0
         while True:
-            try:
-                output = self.run(f'ros2 param {arguments}', timeout=PARAM_S).stdout
-            except subprocess.TimeoutExpired:
+            output = self._ros2_param(arguments, report=lost > 0)
+            if output is None:
                 lost += 1
-                if lost > 1:
-                    raise
                 warnings.warn(f'ros2 param {arguments}: no answer in {PARAM_S} s; asked again')
                 continue
             if 'Node not found' not in output or time.monotonic() > deadline:
                 return output
             time.sleep(0.5)
 
+    def _ros2_param(self, arguments: str, report: bool) -> str | None:
+        """Output of one `ros2 param ARGUMENTS` call; None when it gets no answer in PARAM_S,
+        or with `report` an AssertionError with the stacks of the call's process group and of
+        the started processes still running."""
+        with subprocess.Popen(self.argv(f'ros2 param {arguments}'), env=self.env,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                              start_new_session=True) as call:
+            try:
+                return call.communicate(timeout=PARAM_S)[0]
+            except subprocess.TimeoutExpired:
+                where = '\n'.join([stacks(call)] + [stacks(process) for process in self.started
+                                                    if process.poll() is None]) if report else ''
+                os.killpg(call.pid, signal.SIGKILL)
+                call.communicate()
+        if report:
+            raise AssertionError(f'ros2 param {arguments}: no answer in {PARAM_S} s, twice\n'
+                                 f'{where}')
+        return None
+
     def start(self, command: str, log: Path) -> subprocess.Popen:
         """`command` in the background, output to `log`."""
         with open(log, 'wb') as out:
-            return subprocess.Popen(self.argv(command), env=self.env, stdout=out,
-                                    stderr=subprocess.STDOUT, start_new_session=True)
+            process = subprocess.Popen(self.argv(command), env=self.env, stdout=out,
+                                       stderr=subprocess.STDOUT, start_new_session=True)
+        self.started = [p for p in self.started if p.poll() is None] + [process]
+        return process
 
 
 def _environment() -> dict[str, str]:

@@ -248,12 +248,12 @@ class LidarObjectTracker:
         that have been tracked for SETTLE_TIME, unless their velocity is voting to turn them
         (the heading they have is then known to be wrong: f1tenth_moving seed 325 object 2,
         hidden while its votes were counted, was reported pointing backwards)."""
-        return [t for t in self.tracks if self._reportable(t)]
+        return [t for t in self.tracks if self._reportable(t, self.time)]
 
-    def _reportable(self, track: ObjectTrack) -> bool:
-        """Whether `track` is reported now (reported's rule)."""
+    def _reportable(self, track: ObjectTrack, time: float) -> bool:
+        """Whether `track` is reported at `time` [s] (reported's rule)."""
         return track.hits >= self.config.min_hits and (
-            track.settled or (self.time - track.born >= SETTLE_TIME and not turning(track)))
+            track.settled or (time - track.born >= SETTLE_TIME and not turning(track)))
 
     def step(self, points: np.ndarray, time: float, sensor: Optional[np.ndarray] = None,
              offsets: Optional[np.ndarray] = None,
@@ -415,7 +415,7 @@ class LidarObjectTracker:
         the new id)."""
         config = self.config
         for young in [t for t in self.tracks if t.updated == time and not t.continues
-                      and self._id_still_open(t)]:
+                      and self._id_still_open(t, time)]:
             old = self._nearest_same_object(young, [
                 t for t in self.tracks
                 if t.updated < time and t.born < young.born and t.hits >= config.min_hits])
@@ -423,11 +423,11 @@ class LidarObjectTracker:
                 young.continue_from(old)
                 self.tracks = [t for t in self.tracks if t is not old]
 
-    def _id_still_open(self, track: ObjectTrack) -> bool:
-        """Whether `track`, updated now, may still continue an older track's id
+    def _id_still_open(self, track: ObjectTrack, time: float) -> bool:
+        """Whether `track`, updated at `time`, may still continue an older track's id
         (_continue_confirmed): this is its min_hits-th update, or its first report."""
         return track.hits == self.config.min_hits or (
-            not track.published and self._reportable(track))
+            not track.published and self._reportable(track, time))
 
     def _hidden(self, track: ObjectTrack) -> bool:
         """Whether the track's predicted rectangle is hidden in this scan: at least
