@@ -17,7 +17,7 @@ from data_association_ros.core.lidar.object_tracker import (SETTLE_TIME, SLOW_VO
                                                              fused_start_velocity, heading_turn,
                                                              no_slip, plausible_turn, vague)
 from data_association_ros.core.tracking.kalman import KalmanFilter
-from data_association_ros.pipelines.lidar_tracking import PoseHistory, to_frame
+from data_association_ros.pipelines.lidar_tracking import LidarTracking, PoseHistory, to_frame
 
 NO_WALLS = np.zeros((0, 2, 2))
 
@@ -440,6 +440,22 @@ def test_young_track_beside_a_coasting_one_continues_its_id():
     tracker._continue_confirmed(1.0)
     assert young.id == 2 and young.continues
     assert [t.id for t in tracker.tracks] == [3, 4, 2]
+
+
+def test_every_reported_track_is_published_and_no_other():
+    """`step` marks the tracks it reports published, and only those: over a car scene, after
+    each scan a track is published exactly when it has been reported at some scan so far."""
+    scans = scans_from_messages(KINDS['car_static'](1098).messages())
+    tracking = LidarTracking(configuration('car_static', TrackerConfig()))
+    ever = set()
+    for scan in scans:
+        reported = tracking.step(scan.points, scan.time, scan.time_increment, scan.frame,
+                                 scan.max_range)
+        ever |= {id(track) for track in reported}
+        assert all(track.published for track in reported)
+        assert {id(t) for t in tracking.tracker.tracks if t.published} == \
+            ever & {id(t) for t in tracking.tracker.tracks}
+    assert ever
 
 
 @pytest.mark.parametrize('published, settled, continues', [

@@ -70,6 +70,7 @@ class Tools:
             if output is None:
                 lost += 1
                 warnings.warn(f'ros2 param {arguments}: no answer in {PARAM_S} s; asked again')
+                deadline = time.monotonic() + UP_S
                 continue
             if 'Node not found' not in output or time.monotonic() > deadline:
                 return output
@@ -77,18 +78,24 @@ class Tools:
 
     def _ros2_param(self, arguments: str, report: bool) -> str | None:
         """Output of one `ros2 param ARGUMENTS` call; None when it gets no answer in PARAM_S,
-        or with `report` an AssertionError with the stacks of the call's process group and of
-        the started processes still running."""
+        or with `report` an AssertionError with the stacks of the call's process group (with
+        the ros2 daemon, when this call started it) and of the started processes still running.
+        Only the call is killed: a daemon it started stays in its group."""
         with subprocess.Popen(self.argv(f'ros2 param {arguments}'), env=self.env,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                               start_new_session=True) as call:
             try:
                 return call.communicate(timeout=PARAM_S)[0]
             except subprocess.TimeoutExpired:
-                where = '\n'.join([stacks(call)] + [stacks(process) for process in self.started
-                                                    if process.poll() is None]) if report else ''
-                os.killpg(call.pid, signal.SIGKILL)
-                call.communicate()
+                where = ''
+                try:
+                    if report:
+                        where = '\n'.join([stacks(call)] + [
+                            stacks(process) for process in self.started
+                            if process.poll() is None])
+                finally:
+                    call.kill()
+                    call.communicate()
         if report:
             raise AssertionError(f'ros2 param {arguments}: no answer in {PARAM_S} s, twice\n'
                                  f'{where}')

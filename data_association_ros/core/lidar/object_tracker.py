@@ -172,7 +172,7 @@ class ObjectTrack:
     update count, time [s] and posterior (x, y, yaw) of the last update, and this scan's matched
     scan points; continues: it took over an older track's id; swung [rad]: the net heading
     change by the corrections since the rectangle was last fitted (EXTENT_SWING); published:
-    it has been reported (its id has been seen)."""
+    this track has been reported."""
 
     id: int
     filter: KalmanFilter | InteractingModels
@@ -425,9 +425,11 @@ class LidarObjectTracker:
 
     def _id_still_open(self, track: ObjectTrack, time: float) -> bool:
         """Whether `track`, updated at `time`, may still continue an older track's id
-        (_continue_confirmed): this is its min_hits-th update, or its first report."""
-        return track.hits == self.config.min_hits or (
-            not track.published and self._reportable(track, time))
+        (_continue_confirmed): it has never been reported, and this is its min_hits-th update
+        or its first report (a reported track keeps its id, also when min_hits is raised at
+        run time or a min_hits 1 track is restarted)."""
+        return not track.published and (track.hits == self.config.min_hits
+                                         or self._reportable(track, time))
 
     def _hidden(self, track: ObjectTrack) -> bool:
         """Whether the track's predicted rectangle is hidden in this scan: at least
