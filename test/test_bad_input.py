@@ -162,6 +162,16 @@ def test_a_singular_covariance_of_huge_entries_is_rejected_compiled_or_not():
 
 
 @pytest.mark.filterwarnings('error::RuntimeWarning')
+def test_the_smallest_eigenvalue_of_a_huge_indefinite_matrix_is_reported_without_overflow():
+    """[[-M, M], [M, -M]], M = 1.5e308: scaled to [[-1, 1], [1, -1]], smallest eigenvalue -2,
+    which times the scale 1.5e308 is beyond the largest float: the message says -inf, with no
+    RuntimeWarning (found by the fuzz test below in a fresh-clone run)."""
+    huge = 1.5e308 * np.array([[[-1.0, 1.0], [1.0, -1.0]]])
+    with pytest.raises(InvalidInputError, match=r'smallest eigenvalue -inf\)'):
+        check_spd(huge, 'covariances')
+
+
+@pytest.mark.filterwarnings('error::RuntimeWarning')
 def test_an_asymmetric_matrix_of_opposite_huge_entries_is_rejected_without_overflow():
     """1e308 against -1e308: their difference overflows to inf, which is asymmetry, reported
     as such (no RuntimeWarning), compiled or not."""

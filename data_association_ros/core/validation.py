@@ -61,7 +61,7 @@ def check_spd(matrices: np.ndarray, field: str) -> None:
     if bad.size:
         raise InvalidInputError(
             f'{field}[{bad[0]}]: not positive definite (smallest eigenvalue '
-            f'{smallest[bad[0]] * scale[bad[0]]:.3g})')
+            f'{float(smallest[bad[0]]) * float(scale[bad[0]]):.3g})')  # inf, not a warning
 
 
 _CHECKED: 'weakref.WeakValueDictionary[int, np.ndarray]' = weakref.WeakValueDictionary()
