@@ -423,18 +423,26 @@ def test_dropped_duplicate_gives_its_id_to_the_unconfirmed_track_only():
         assert tracker.tracks == [newer] and newer.id == expected
 
 
+def _coasting_and_young(hits, born):
+    """(a published track coasting since 0.2 s, a track updated at 1.0 s with `hits` updates,
+    born at `born`, within the coasting one's same-object gate)."""
+    coasting = _track(2, [1.0, 1.0, 0, -7, 1, 0], [2, 5, 1, 9, 30, 1], 100, 0.2)
+    coasting.published = True
+    young = _track(9, [1.3, 0.4, 0, -6.5, -1, 0], [0.01, 0.01, 0.01, 1, 1, 1], hits, 1.0,
+                   born=born)
+    return coasting, young
+
+
 def test_young_track_beside_a_coasting_one_continues_its_id():
     """A young track confirmed now (min_hits updates) within the same-object gate of a
     confirmed track that coasts (not updated now, born before it) takes its id and the coasting
     one is dropped; a track that was updated now, or one outside the gate, is left alone."""
     config = configuration('f1tenth_static', TrackerConfig())
     tracker = LidarObjectTracker(config)
-    coasting = _track(2, [1.0, 1.0, 0, -7, 1, 0], [2, 5, 1, 9, 30, 1], 100, 0.2)
+    coasting, young = _coasting_and_young(config.min_hits, born=0.5)
     updated = _track(3, [1.2, 0.4, 0, -7, 0, 0], [0.01] * 6, 100, 1.0)
     far = _track(4, [9.0, -6.0, 0, -7, 0, 0], [0.01] * 6, 100, 0.3)
-    young = _track(9, [1.3, 0.4, 0, -6.5, -1, 0], [0.01, 0.01, 0.01, 1, 1, 1],
-                   config.min_hits, 1.0, born=0.5)
-    for track in (coasting, updated, far):
+    for track in (updated, far):
         track.published = True
     tracker.tracks = [coasting, updated, far, young]
     tracker._continue_confirmed(1.0)
@@ -464,16 +472,13 @@ def test_every_reported_track_is_published_and_no_other():
     (False, False, False)])  # not reportable yet (heading voting, younger than SETTLE_TIME)
 def test_a_track_past_min_hits_continues_an_id_only_at_its_first_report(published, settled,
                                                                         continues):
-    """The young track of the test above, but updated min_hits + 2 times (it was not
+    """The young track of _coasting_and_young, but updated min_hits + 2 times (it was not
     reported at its min_hits-th update): it continues the coasting track's id when it is
     reported for the first time now (settled, never published), not when it has been reported
     before or is not reported now."""
     config = configuration('f1tenth_static', TrackerConfig())
     tracker = LidarObjectTracker(config)
-    coasting = _track(2, [1.0, 1.0, 0, -7, 1, 0], [2, 5, 1, 9, 30, 1], 100, 0.2)
-    coasting.published = True
-    young = _track(9, [1.3, 0.4, 0, -6.5, -1, 0], [0.01, 0.01, 0.01, 1, 1, 1],
-                   config.min_hits + 2, 1.0, born=0.8)
+    coasting, young = _coasting_and_young(config.min_hits + 2, born=0.8)
     young.published, young.settled = published, settled
     tracker.tracks = [coasting, young]
     tracker._continue_confirmed(1.0)
@@ -694,12 +699,12 @@ def test_a_car_coasting_out_of_view_is_kept_while_its_prediction_is_vague(monkey
     assert before.id_switches >= 1, before
 
 
-@pytest.mark.parametrize('seed, face', [(1098, 'front face out of an occlusion'),
-                                        (1106, 'returns thinning near range_max')])
-def test_a_track_first_reported_on_a_coasting_track_continues_its_id(monkeypatch, seed, face):
+@pytest.mark.parametrize('seed', [1098, 1106], ids=['front face out of an occlusion',
+                                                     'returns thinning near range_max'])
+def test_a_track_first_reported_on_a_coasting_track_continues_its_id(monkeypatch, seed):
     """car_static seeds 1098 and 1106 object 4: the car's track coasts (hidden for 0.3 s, or its
     cluster at 27 m could not correct it), and a new track is started on the car's returns
-    (the `face`) with its rectangle 90 deg off, its centre 2 m from the coasting track's, so at
+    (the test's id) with its rectangle 90 deg off, its centre 2 m from the coasting track's, so at
     its min_hits-th update it is outside _same_object's gate.  Two scans later its velocity has
     turned it and it lies on the coasting track.  Until then it was not reported (its heading
     was voting), so at its first report it continues the old id: one id for the car.  With only
