@@ -9,7 +9,10 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    would pass the sensor's range limit at the next beam is neither);
 2. predict every track to t, its velocity turning with its yaw rate (measurement.
    turning_prediction, process_noise; with calm_yaw_accel_sigma two such models, calm and
-   agile, mixed by an IMM: tracking.interacting_models);
+   agile, mixed by an IMM: tracking.interacting_models); a cluster that holds the returns of
+   two or more tracks corrected on the previous scan is split between them by their
+   predicted rectangles before its ends are flagged (shared_clusters.split_shared: objects
+   side by side);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
    centroid in the object frame, moved with the predicted pose; covariance A P A^T +
    coarse_sigma^2 I + extent_covariance: the returns of another part of the object may show)
@@ -95,6 +98,7 @@ from .measurement import (fictitious_measurement, lateral_velocity, measurement_
                           process_noise, turning_prediction)
 from .parameters import SIZE_CLASSES, TrackerConfig
 from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_visible
+from .shared_clusters import Boxes, split_shared
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
 """Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
@@ -136,6 +140,9 @@ FACE_SIGMAS = 2.0
 """A cluster end is no edge when the next beam's return continues the face within FACE_SIGMAS
 point_sigma of its line (clustering.on_face); such returns are one cluster (cluster_consecutive's
 face_tolerance)."""
+SPLIT_SIGMAS = 3.0
+"""A return up to SPLIT_SIGMAS stds (point and predicted position) outside a track's predicted
+rectangle may be that track's when a cluster shared by tracks is split (_claims)."""
 CORNER_REACH = 1.5
 """point_to_line_correction's reach in boundary spacings with a one-to-one fine matching
 (jcbb_points): a pair's face may be any visible face within it of the boundary point, the one
@@ -290,17 +297,19 @@ class LidarObjectTracker:
             np.asarray(origins, float).reshape(points.shape)
         self._rays = beams(points, self._origins, directions, self._margin, max_range)
         self._range_known = max_range is not None and bool(np.isfinite(max_range))
-        labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
-                                     FACE_SIGMAS * config.point_sigma, self._largest)
-        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
-                                             max_range)
-        self._occluded = occluded
-        count = len(ends)
         dt = None if self.time is None else time - self.time
         before, self.time = self.time, time
         for track in self.tracks:
             predict(track.filter, dt, config)
             track.matched = np.zeros((0, 2))
+        labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
+                                     FACE_SIGMAS * config.point_sigma, self._largest)
+        labels = split_shared(points, labels, self._claims(before), self._offsets,
+                              config.min_pairs)
+        ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
+                                             max_range)
+        self._occluded = occluded
+        count = len(ends)
         members = self._coarse(points, labels, count)
         free = np.ones(count, dtype=bool)
         lost: dict[int, ObjectTrack] = {}  # cluster -> the established coasting track it failed
@@ -342,6 +351,21 @@ class LidarObjectTracker:
         for track in reported:
             track.published = True
         return reported
+
+    def _claims(self, before: Optional[float]) -> Boxes:
+        """The predicted rectangles that may split a shared cluster (split_shared): of the
+        established tracks corrected on the previous scan (`before`), margin SPLIT_SIGMAS x
+        sqrt(point_sigma^2 + the largest variance of the predicted position)."""
+        tracks = [t for t in self.tracks
+                  if before is not None and t.updated >= before and self._established(t)]
+        if not tracks:
+            return Boxes(np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)),
+                         np.zeros(0))
+        states = np.array([t.filter.x for t in tracks])
+        spread = np.array([np.linalg.eigvalsh(t.filter.p[:2, :2])[-1] for t in tracks])
+        return Boxes(states[:, :2], states[:, 2],
+                     np.array([[t.length / 2, t.width / 2] for t in tracks]), states[:, 3:5],
+                     SPLIT_SIGMAS * np.sqrt(self.config.point_sigma ** 2 + spread))
 
     def _found_again(self, new: ObjectTrack, time: float, before: Optional[float],
                      taken: Optional[ObjectTrack]) -> Optional[ObjectTrack]:
