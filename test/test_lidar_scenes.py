@@ -534,9 +534,9 @@ def test_the_far_end_of_a_car_goes_to_its_track_not_to_a_long_coasting_one():
     tracker = LidarObjectTracker(configuration('car_static', TrackerConfig()))
     tracker.tracks = [car, coasting]
     points = np.array([[11.5, -0.5], [11.5, 0.5]])
-    assert tracker._coarse(points, np.array([0, 0]), 1) == {0: [0]}
+    assert tracker._coarse(points, np.array([0, 0]), 1, None) == {0: [0]}  # one tier
     tracker.tracks = [coasting, car]  # the order does not decide it
-    assert tracker._coarse(points, np.array([0, 0]), 1) == {1: [0]}
+    assert tracker._coarse(points, np.array([0, 0]), 1, None) == {1: [0]}
 
 
 @pytest.mark.parametrize('occluders', [False, True])
@@ -726,7 +726,9 @@ def test_two_cars_whose_returns_are_one_cluster_keep_their_ids(monkeypatch):
     are one cluster.  Split by the two tracks' predicted rectangles (split_shared), each car
     keeps its track and id, within the limits.  Given whole to the near car's track (the rule
     before), that track grew over both cars to 1.24 m, was dropped as a wall, and the far
-    car's coasting id was handed to the near car (checked: 1 switch each)."""
+    car's coasting id was handed to the near car (checked: 1 switch each; since the coarse
+    association serves the tracks corrected on the previous scan first, the near car's: 1
+    switch, the far car's heading RMSE 6.3 deg)."""
     scans = scans_from_messages(KINDS['f1tenth_moving'](1013).messages())
     config = configuration('f1tenth_moving', TrackerConfig())
     results = score(scans, run_offline(scans, config)[0])
@@ -736,5 +738,41 @@ def test_two_cars_whose_returns_are_one_cluster_keep_their_ids(monkeypatch):
             and results[car].velocity_rmse < 0.8, results[car]
     monkeypatch.setattr(object_tracker, 'split_shared', lambda points, labels, *rest: labels)
     before = score(scans, run_offline(scans, config)[0])
-    assert before[2].id_switches >= 1 and before[4].id_switches >= 1, before
+    assert before[2].id_switches >= 1, before
+
+
+def test_a_vague_track_does_not_take_the_cluster_of_one_corrected_the_scan_before():
+    """By hand (F1Tenth settings: coarse_sigma 0.5, point_sigma 0.05, gate 9.21): a car's track R
+    at the origin, corrected on the previous scan (position variance 0.001), and a track V never
+    corrected, 2 m behind (variance 0.6); the car's cluster at the origin and a wall's 1 m ahead.
+    Centroid covariances (P + 0.25 I + extent (0.0756, 0.0225) + 0.0025 I) in x: R 0.3291, V
+    0.9281.  d2: R-car 0, R-wall 1 / 0.3291 = 3.04, V-car 4 / 0.9281 = 4.31, V-wall 9.70 (out of
+    the gate).  In one assignment R-wall + V-car (7.35) beats R-car + the wall unpaired (9.21):
+    the swap.  Served first, R takes the car; V gates nothing left."""
+    recent = _track(1, [0, 0, 0, 0, 0, 0], [0.001, 0.001, 0.001, 0.01, 0.01, 0.01], 10, 0.975)
+    vague = _track(2, [-2.0, 0, 0, 0, 0, 0], [0.6, 0.6, 0.04, 100, 100, 1], 1, 0.0)
+    tracker = LidarObjectTracker(configuration('f1tenth_moving', TrackerConfig()))
+    tracker.tracks = [recent, vague]
+    points = np.array([[-0.05, -0.1], [0.05, 0.1], [0.95, -0.1], [1.05, 0.1]])
+    labels = np.array([0, 0, 1, 1])
+    assert tracker._coarse(points, labels, 2, None) == {1: [0], 0: [1]}  # one tier: swapped
+    assert tracker._coarse(points, labels, 2, 0.975) == {0: [0]}
+
+def test_tracks_corrected_on_the_previous_scan_take_their_clusters_first(monkeypatch):
+    """f1tenth_moving seed 1025 object 1, a car 1.2 m beside the moving sensor: a track started
+    on the first scan and never corrected (velocity std 10 m/s) gates the car's cluster 2 m
+    away.  Served after the tracks corrected on the previous scan (_tiers) it cannot take it:
+    one id, within the limits.  In one assignment with the car's track (the rule before) it took
+    the car's cluster while the car's track took a wall's, was restarted onto the car at 9 m/s
+    and took the car's id (checked: 1 switch)."""
+    scans = scans_from_messages(KINDS['f1tenth_moving'](1025).messages())
+    config = configuration('f1tenth_moving', TrackerConfig())
+    result = score(scans, run_offline(scans, config)[0])[1]
+    assert len(result.track_ids) == 1 and result.id_switches == 0, result
+    assert result.position_rmse < 0.05 and result.heading_rmse_deg < 5.0 \
+        and result.velocity_rmse < 0.8, result
+    monkeypatch.setattr(object_tracker.LidarObjectTracker, '_tiers',
+                        lambda self, before: [np.arange(len(self.tracks))])
+    before = score(scans, run_offline(scans, config)[0])[1]
+    assert before.id_switches >= 1, before
 
