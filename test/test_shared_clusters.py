@@ -5,7 +5,7 @@ from hypothesis import given, settings, strategies as st
 
 from data_association_ros.core.lidar.clustering import cluster_consecutive
 from data_association_ros.core.lidar.raycast import raycast, rectangle_segments
-from data_association_ros.core.lidar.shared_clusters import Boxes, split_shared
+from data_association_ros.core.lidar.shared_clusters import Boxes, _cuts, split_shared
 
 ANGLES = np.deg2rad(np.arange(-135.0, 135.0, 0.25))
 MIN_POINTS = 5
@@ -47,21 +47,21 @@ near car's far corner is on the far car, 0.2 m away (70 and 32 returns)."""
 
 def test_two_cars_in_a_convoy_are_one_cluster_until_split():
     """Their returns are within the 0.3 m cluster gap (one cluster); the split gives each car
-    exactly its own returns, in scan order, the first keeping label 0."""
-    points, owner = scan_of(SEED_1013)
+    exactly its own returns.  With a post before them and one after (in scan order), the
+    labels come out in scan order: post 0, near car 1, far car 2, post 3."""
+    posts = [((2.0, -2.0), 0.0, 0.2, 0.2), ((1.0, 2.5), 0.0, 0.2, 0.2)]
+    points, owner = scan_of(SEED_1013 + posts)
     labels = cluster_consecutive(points, 0.3, 3)
-    assert len(np.unique(labels[owner >= 0])) == 1  # merged
+    assert len(np.unique(labels[(owner == 0) | (owner == 1)])) == 1  # merged
     split = split_shared(points, labels, boxes_of(SEED_1013), np.zeros(len(points)),
                          MIN_POINTS)
-    assert sorted(np.unique(split[split >= 0])) == [0, 1]
     assert_pieces_are_objects(split, owner)
-    assert split[np.flatnonzero(split >= 0)[0]] == 0
+    assert [split[owner == k][0] for k in (2, 0, 1, 3)] == [0, 1, 2, 3]
 
 
 def test_a_cluster_of_one_tracked_object_is_left_whole():
     """One box, or a second box far from the cluster, or two boxes on the same object (a
-    duplicate track: no return is only one box's), or a piece shorter than min_points: the
-    labels are unchanged."""
+    duplicate track: no return is only one box's): the labels are unchanged."""
     car = ((3.0, 0.0), 0.2, 0.55, 0.3)
     points, owner = scan_of([car])
     labels = cluster_consecutive(points, 0.3, 3)
@@ -70,13 +70,33 @@ def test_a_cluster_of_one_tracked_object_is_left_whole():
                        [car, ((3.02, 0.01), 0.25, 0.55, 0.3)]):
         assert np.array_equal(split_shared(points, labels, boxes_of(rectangles), offsets,
                                            MIN_POINTS), labels)
-    # two boxes, each the owner of half the car's returns, but too few for a piece
-    member = np.flatnonzero(labels == 0)
-    halves = [((*points[member[:len(member) // 2]].mean(axis=0),), 0.0, 0.05, 0.05),
-              ((*points[member[len(member) // 2:]].mean(axis=0),), 0.0, 0.05, 0.05)]
-    big = len(member)
-    assert np.array_equal(split_shared(points, labels, boxes_of(halves, margin=0.3), offsets,
-                                       big), labels)
+
+
+def test_cuts_by_hand():
+    """_cuts on scan-ordered owners: boxes [0, 1], owners 0 0 0 1 0 0 1 1 1 1: the cut at 6
+    (one 1 before it, no 0 after it: cost 1; at 3 the cost is 2); boxes [2, 0, 1], owners
+    2 2 0 0 0 1 1 1: cuts at 2 and 5 (cost 0)."""
+    assert _cuts(np.array([0, 0, 0, 1, 0, 0, 1, 1, 1, 1]), [0, 1]) == [6]
+    assert _cuts(np.array([2, 2, 0, 0, 0, 1, 1, 1]), [2, 0, 1]) == [2, 5]
+
+
+def test_a_box_nearest_to_too_few_returns_gives_way_to_the_others():
+    """A face of returns every 2 cm along x from 0 to 1 m (one cluster); box A over x 0-0.5,
+    box B over 0.65-0.95 (margins 0.02 m), box C a point at (0.58, 0.08) with a margin of 0.095
+    m.  The 5 returns at x 0.54-0.62 are within C's margin only, so all three claim the
+    cluster, but each is nearer A or B (0.03-0.07 m) than C (0.08-0.09 m): C is dropped and
+    the cluster is split between A and B (without the rule: a claimant with no returns, the
+    cluster left whole)."""
+    x = np.arange(0.0, 1.0001, 0.02)
+    points = np.column_stack([x, np.zeros_like(x)])
+    labels = cluster_consecutive(points, 0.3, 3)
+    boxes = Boxes(np.array([[0.25, 0.0], [0.8, 0.0], [0.58, 0.08]]), np.zeros(3),
+                  np.array([[0.25, 0.05], [0.15, 0.05], [0.0, 0.0]]), np.zeros((3, 2)),
+                  np.array([0.02, 0.02, 0.095]))
+    split = split_shared(points, labels, boxes, np.zeros(len(points)), MIN_POINTS)
+    assert len(np.unique(split)) == 2
+    assert len(set(split[x <= 0.52])) == 1 and len(set(split[x >= 0.63])) == 1
+    assert split[0] != split[-1]
 
 
 def test_a_return_is_moved_back_by_its_box_velocity_before_it_is_compared():
@@ -119,5 +139,6 @@ def test_split_matches_the_ray_cast_objects(distance, bearing, yaw, gap, shift, 
             for obj in (0, 1):
                 assert len(set(split[inside & (owner == obj)])) == 1
             assert split[inside & (owner == 0)][0] != split[inside & (owner == 1)][0]
-        else:                              # one object's: whole
+        else:                              # one object's: whole, nothing added to it
             assert len(set(split[inside])) == 1
+            assert np.array_equal(split == split[inside][0], inside)

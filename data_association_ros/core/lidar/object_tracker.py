@@ -10,9 +10,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 2. predict every track to t, its velocity turning with its yaw rate (measurement.
    turning_prediction, process_noise; with calm_yaw_accel_sigma two such models, calm and
    agile, mixed by an IMM: tracking.interacting_models); a cluster that holds the returns of
-   two or more tracks corrected on the previous scan is split between them by their
-   predicted rectangles before its ends are flagged (shared_clusters.split_shared: objects
-   side by side);
+   two or more established tracks corrected on the previous scan is split between them by
+   their predicted rectangles before its ends are flagged (shared_clusters.split_shared:
+   objects side by side);
 3. coarse: associate cluster centroids with the tracks' predicted centroids (the last cluster
    centroid in the object frame, moved with the predicted pose; covariance A P A^T +
    coarse_sigma^2 I + extent_covariance: the returns of another part of the object may show)
@@ -514,8 +514,8 @@ class LidarObjectTracker:
 
     def _coarse(self, points: np.ndarray, labels: np.ndarray, count: int,
                 before: Optional[float]) -> dict[int, list]:
-        """{track index: [cluster indices]} (step 3 of the module docstring; the tracks in
-        _tiers' order)."""
+        """{track index: [cluster indices]} (step 3 of the module docstring; assigned tier by
+        tier, _tiers)."""
         if not self.tracks or not count:
             return {}
         config = self.config
@@ -574,7 +574,8 @@ class LidarObjectTracker:
         and took its id).  A confirmed track coasting is not served first: its prediction is as
         vague (f1tenth_static seed 1060 object 3, out of view behind the sensor, would take
         another car's cluster and hand that car its id)."""
-        recent = np.array([before is not None and t.updated >= before for t in self.tracks])
+        recent = np.array([before is not None and t.updated >= before for t in self.tracks],
+                          dtype=bool)
         return [np.flatnonzero(recent), np.flatnonzero(~recent)]
 
     def _edges(self, points: np.ndarray, labels: np.ndarray, clusters: list,

@@ -13,6 +13,7 @@ are consecutive beams).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -65,9 +66,9 @@ def split_shared(points: np.ndarray, labels: np.ndarray, boxes: Boxes, offsets: 
     cluster when at least `min_points` of its returns lie within the box's margin and within no
     other box's.  Each return goes to the claiming box it lies nearest to, then the cut points
     are placed in scan order where the fewest returns go against that (a cut between box a and
-    the boxes after it minimises a's returns after it plus the others' before it); the first
-    piece keeps the cluster's label, the others take new labels after the largest.  A cluster is
-    left whole when a piece would have fewer than `min_points` returns."""
+    the boxes after it minimises a's returns after it plus the others' before it).  A cluster is
+    left whole when a piece would have fewer than `min_points` returns.  The labels returned
+    are 0..C-1 in scan order of each cluster's first return (-1 kept)."""
     labels = np.asarray(labels).copy()
     if not len(boxes.yaws) or not np.any(labels >= 0):
         return labels
@@ -87,8 +88,10 @@ def split_shared(points: np.ndarray, labels: np.ndarray, boxes: Boxes, offsets: 
         claimants = np.flatnonzero(own.sum(axis=0) >= min_points)
         if len(claimants) < 2:
             continue
-        owner = claimants[np.argmin(distance[:, claimants], axis=1)]
-        order = sorted(claimants, key=lambda b: np.median(np.flatnonzero(owner == b)))
+        owner = _owners(distance, claimants, min_points)
+        if owner is None:
+            continue
+        order = sorted(set(owner), key=lambda b: np.median(np.flatnonzero(owner == b)))
         cuts = _cuts(owner, order)
         sizes = np.diff(np.concatenate([[0], cuts, [len(member)]]))
         if np.any(sizes < min_points):
@@ -97,6 +100,21 @@ def split_shared(points: np.ndarray, labels: np.ndarray, boxes: Boxes, offsets: 
             labels[member[cut:]] = next_label
             next_label += 1
     return _renumbered(labels)
+
+
+def _owners(distance: np.ndarray, claimants: np.ndarray, min_points: int
+            ) -> Optional[np.ndarray]:
+    """The box (column of distance (n, B)) each return goes to: the nearest claimant, after
+    dropping, one round at a time, the claimants nearest to fewer than min_points returns (a box
+    with a wide margin may claim returns that lie nearer another); None when fewer than two
+    are left."""
+    while len(claimants) >= 2:
+        owner = claimants[np.argmin(distance[:, claimants], axis=1)]
+        kept = np.array([np.count_nonzero(owner == b) >= min_points for b in claimants])
+        if kept.all():
+            return owner
+        claimants = claimants[kept]
+    return None
 
 
 def _cuts(owner: np.ndarray, order: list) -> list[int]:
