@@ -357,16 +357,12 @@ class LidarObjectTracker:
         """The predicted rectangles that may split a shared cluster (split_shared): of the
         established tracks corrected on the previous scan (`before`), margin SPLIT_SIGMAS x
         sqrt(point_sigma^2 + the largest variance of the predicted position)."""
-        tracks = [t for t in self.tracks
-                  if before is not None and t.updated >= before and self._established(t)]
-        if not tracks:
-            return Boxes(np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)),
-                         np.zeros(0))
-        states = np.array([t.filter.x for t in tracks])
+        tracks = [t for t in self.tracks if corrected_since(t, before) and self._established(t)]
+        states = np.array([t.filter.x for t in tracks]).reshape(-1, 6)
         spread = np.array([np.linalg.eigvalsh(t.filter.p[:2, :2])[-1] for t in tracks])
         return Boxes(states[:, :2], states[:, 2],
-                     np.array([[t.length / 2, t.width / 2] for t in tracks]), states[:, 3:5],
-                     SPLIT_SIGMAS * np.sqrt(self.config.point_sigma ** 2 + spread))
+                     np.array([[t.length / 2, t.width / 2] for t in tracks]).reshape(-1, 2),
+                     states[:, 3:5], SPLIT_SIGMAS * np.sqrt(self.config.point_sigma ** 2 + spread))
 
     def _found_again(self, new: ObjectTrack, time: float, before: Optional[float],
                      taken: Optional[ObjectTrack]) -> Optional[ObjectTrack]:
@@ -381,7 +377,7 @@ class LidarObjectTracker:
         swapped ids)."""
         return self._nearest_same_object(new, [
             t for t in self.tracks if t.updated < time and self._established(t)
-            and (t is taken or (before is not None and t.updated >= before))])
+            and (t is taken or corrected_since(t, before))])
 
     def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
         """The track `new`, started near `old`'s prediction (_found_again), is the same object
@@ -574,8 +570,7 @@ class LidarObjectTracker:
         and took its id).  A confirmed track coasting is not served first: its prediction is as
         vague (f1tenth_static seed 1060 object 3, out of view behind the sensor, would take
         another car's cluster and hand that car its id)."""
-        recent = np.array([before is not None and t.updated >= before for t in self.tracks],
-                          dtype=bool)
+        recent = np.array([corrected_since(t, before) for t in self.tracks], dtype=bool)
         return [np.flatnonzero(recent), np.flatnonzero(~recent)]
 
     def _edges(self, points: np.ndarray, labels: np.ndarray, clusters: list,
@@ -847,6 +842,12 @@ def plausible_turn(points: np.ndarray, yaw: float, velocity: np.ndarray, turn: f
             across_spread(points, yaw + np.pi / 2) > limit:
         return turn
     return float(np.copysign(np.pi / 2, rotation(yaw)[:, 1] @ velocity))
+
+
+def corrected_since(track: ObjectTrack, time: Optional[float]) -> bool:
+    """Whether the track was updated at `time` [s] or later (the previous scan's time in
+    step; None, no previous scan: False)."""
+    return time is not None and track.updated >= time
 
 
 def vague(track: ObjectTrack) -> bool:

@@ -67,15 +67,17 @@ def split_shared(points: np.ndarray, labels: np.ndarray, boxes: Boxes, offsets: 
     other box's.  Each return goes to the claiming box it lies nearest to, then the cut points
     are placed in scan order where the fewest returns go against that (a cut between box a and
     the boxes after it minimises a's returns after it plus the others' before it).  A cluster is
-    left whole when a piece would have fewer than `min_points` returns.  The labels returned
-    are 0..C-1 in scan order of each cluster's first return (-1 kept)."""
-    labels = np.asarray(labels).copy()
+    left whole when a piece would have fewer than `min_points` returns.  After a split the
+    labels are renumbered 0..C-1 in scan order of each cluster's first return (-1 kept; as
+    cluster_consecutive numbers them); with none, `labels` itself is returned."""
+    labels = np.asarray(labels)
     if not len(boxes.yaws) or not np.any(labels >= 0):
         return labels
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     offsets = np.asarray(offsets, dtype=float).reshape(len(points))
-    next_label = int(labels.max()) + 1
-    for cluster in range(next_label):
+    count = int(labels.max()) + 1
+    next_label = count
+    for cluster in range(count):
         member = np.flatnonzero(labels == cluster)
         if len(member) < 2 * min_points:
             continue
@@ -96,10 +98,12 @@ def split_shared(points: np.ndarray, labels: np.ndarray, boxes: Boxes, offsets: 
         sizes = np.diff(np.concatenate([[0], cuts, [len(member)]]))
         if np.any(sizes < min_points):
             continue
+        if next_label == count:
+            labels = labels.copy()  # the caller's labels are left as they are
         for cut in cuts:
             labels[member[cut:]] = next_label
             next_label += 1
-    return _renumbered(labels)
+    return labels if next_label == count else _renumbered(labels)
 
 
 def _owners(distance: np.ndarray, claimants: np.ndarray, min_points: int
