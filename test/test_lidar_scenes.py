@@ -1,5 +1,7 @@
 """LiDAR tracking beyond lidar_two_cars (issue 21): generated scenes, any heading, a moving sensor
 with odometry, size classes, truth matched by header stamp."""
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -295,7 +297,10 @@ def test_f1tenth_car_entering_at_speed_is_one_track_at_its_speed():
     odometry frame, beyond the preset's 0.1 m nearest cut-off, so a track started at rest is
     not matched on the next scan.  Measured before the two-point start: the track was started
     anew 6 times (the one reported is the 7th), coverage 55 %; with it the first track is the
-    one reported, coverage 81 %, velocity RMSE 0.09 m/s, position 3 mm."""
+    one reported, coverage 81 %, velocity RMSE 0.09 m/s, position 3 mm; with the beam time in
+    the measurement (beam_time_measurement; the car is seen 25 ms into the scan) coverage 83 %,
+    velocity RMSE 0.15 m/s, 0.64 m/s off when first reported (0.33 before: its velocity across,
+    0.8 m beside the sensor, is read from the fits' jitter sooner)."""
     car = SceneObject(1, 0.55, 0.3, Pieces((-1.5, 0.8, 0.0), ((3.0, 7.0, 0.0),)))
     ego = Pieces((0.0, 0.0, 0.0), ((3.0, 5.0, 0.0),))
     scene = Scene([car], ego, NO_WALLS, F1TENTH_LIDAR, 1.2, 0, 'f1tenth')
@@ -304,9 +309,10 @@ def test_f1tenth_car_entering_at_speed_is_one_track_at_its_speed():
     result = score(scans, estimates)[1]
     assert result.track_ids == [1] and result.id_switches == 0, result
     assert result.coverage > 0.7 and result.position_rmse < 0.02, result
+    assert result.velocity_rmse < 0.2, result
     reported = [k for k, e in enumerate(estimates) if len(e.ids)]
     state, truth = estimates[reported[0]].states[0], scans[reported[0]].truth[0]
-    assert np.hypot(state[3] - truth['vx'], state[4] - truth['vy']) < 0.5, state
+    assert np.hypot(state[3] - truth['vx'], state[4] - truth['vy']) < 0.8, state
 
 
 def test_car_found_again_off_its_coasting_prediction_keeps_its_id():
@@ -617,7 +623,7 @@ def test_plausible_turn_turns_an_unsettled_side_read_as_a_width():
     assert plausible_turn(SIDE, 0.0, np.zeros(2), np.pi / 2, False, 0.6, 0.6) == np.pi / 2
 
 
-@pytest.mark.parametrize('seed, before_deg', [(204, 20.0), (407, 20.0)])
+@pytest.mark.parametrize('seed, before_deg', [(204, 20.0), (407, None)])
 def test_a_cars_side_is_not_taken_for_its_width(seed, before_deg, monkeypatch):
     """car_static seed 204 object 4 (3.5 m/s) comes out from behind something: its first
     returns, a piece of its side, were fitted as its end; the side growing as it came out was
@@ -625,11 +631,15 @@ def test_a_cars_side_is_not_taken_for_its_width(seed, before_deg, monkeypatch):
     box 90 deg off (heading RMSE 23.8 deg).  Seed 407 object 4, found again after an occlusion
     with the right heading, was then voted across by its first velocity estimates (a few
     returns of its side at 30 m: (7.9, 3.2) m/s for (4.8, -1.2)), 2.7 m of side becoming its
-    width (23.5 deg).  With WIDTH_SLACK: under 1 deg, one track."""
+    width (23.5 deg).  With WIDTH_SLACK: under 1 deg, one track.  Since the beam time is in
+    the measurement (beam_time_measurement) 407's first velocity no longer votes it across
+    (0.6 deg without WIDTH_SLACK): the control is 204's alone."""
     scans = scans_from_messages(KINDS['car_static'](seed).messages())
     config = configuration('car_static', TrackerConfig())
     result = score(scans, run_offline(scans, config)[0])[4]
     assert result.heading_rmse_deg < 1.0 and result.id_switches == 0, result
+    if before_deg is None:
+        return
     monkeypatch.setattr(object_tracker, 'WIDTH_SLACK', np.inf)
     before = score(scans, run_offline(scans, config)[0])[4]
     assert before.heading_rmse_deg > before_deg, before
@@ -759,20 +769,69 @@ def test_a_vague_track_does_not_take_the_cluster_of_one_corrected_the_scan_befor
     assert tracker._coarse(points, labels, 2, 0.975) == {0: [0]}
 
 
-def test_tracks_corrected_on_the_previous_scan_take_their_clusters_first(monkeypatch):
+def test_tracks_corrected_on_the_previous_scan_take_their_clusters_first():
     """f1tenth_moving seed 1025 object 1, a car 1.2 m beside the moving sensor: a track started
     on the first scan and never corrected (velocity std 10 m/s) gates the car's cluster 2 m
     away.  Served after the tracks corrected on the previous scan (_tiers) it cannot take it:
     one id, within the limits.  In one assignment with the car's track (the rule before) it took
     the car's cluster while the car's track took a wall's, was restarted onto the car at 9 m/s
-    and took the car's id (checked: 1 switch)."""
+    and took the car's id (1 switch).  Since the beam time is in the measurement
+    (beam_time_measurement) one assignment no longer switches here either; the rule's own
+    witness is test_a_vague_track_does_not_take_the_cluster_of_one_corrected_the_scan_before
+    (by hand)."""
     scans = scans_from_messages(KINDS['f1tenth_moving'](1025).messages())
     config = configuration('f1tenth_moving', TrackerConfig())
     result = score(scans, run_offline(scans, config)[0])[1]
     assert len(result.track_ids) == 1 and result.id_switches == 0, result
     assert result.position_rmse < 0.05 and result.heading_rmse_deg < 5.0 \
         and result.velocity_rmse < 0.8, result
-    monkeypatch.setattr(object_tracker.LidarObjectTracker, '_tiers',
-                        lambda self, before: [np.arange(len(self.tracks))])
-    before = score(scans, run_offline(scans, config)[0])[1]
-    assert before.id_switches >= 1, before
+
+
+def speeds_after_each_scan(lidar, start, speed, size=(4.5, 1.8), kind=None, scans=8):
+    """|velocity| of the one track after each of the first `scans` scans of one object driving
+    straight from `start` at `speed`, seen by `lidar` from the origin (offsets passed)."""
+    scene = Scene([SceneObject(1, *size, Pieces(start, ((3.0, speed, 0.0),)))], None, NO_WALLS,
+                  lidar, 1.0, 0)
+    tracker = LidarObjectTracker(TrackerConfig() if kind is None
+                                 else configuration(kind, TrackerConfig()))
+    speeds = []
+    for scan in scans_from_messages(scene.messages())[:scans]:
+        tracker.step(scan.points, scan.time,
+                     offsets=np.arange(len(scan.points)) * scan.time_increment)
+        assert len(tracker.tracks) == 1
+        speeds.append(float(np.hypot(*tracker.tracks[0].filter.x[3:5])))
+    return np.array(speeds)
+
+
+@pytest.mark.parametrize('start, speed, size, kind, lidar, most', [
+    ((0.0, 5.0, np.pi), 9.5, (4.5, 1.8), None, CAR_LIDAR, 0.8),
+    ((0.0, 1.5, np.pi), 6.0, (0.55, 0.3), 'f1tenth_static', F1TENTH_LIDAR, 0.5)])
+def test_a_scan_taken_over_time_does_not_slow_the_velocity(start, speed, size, kind, lidar, most,
+                                                           monkeypatch):
+    """A car (an F1Tenth car) side-on at 5 m (1.5 m), 16 ms into the scan, driving
+    at 9.5 (6) m/s from its first scan: the mean speed error over updates 2-7.  Measured: 0.52
+    (0.34) m/s; the same object scanned at one instant 0.10 (0.05); with the beam time left
+    out of the measurement (H = I, the code before) 1.46 (0.82)."""
+    instant = dataclasses.replace(lidar, beams_per_turn=10 ** 9)  # time_increment ~ 0
+    lag = np.mean(np.abs(speeds_after_each_scan(lidar, start, speed, size, kind)[2:] - speed))
+    lag_instant = np.mean(np.abs(
+        speeds_after_each_scan(instant, start, speed, size, kind)[2:] - speed))
+    assert lag < most and lag_instant < 0.2, (lag, lag_instant)
+    monkeypatch.setattr(object_tracker, 'beam_time_measurement', lambda late: np.eye(6))
+    before = np.mean(np.abs(speeds_after_each_scan(lidar, start, speed, size, kind)[2:] - speed))
+    assert before > 1.5 * most, before
+
+
+def test_beam_time_measurement_and_the_start_covariance_by_hand():
+    """z = p + late (v - v0): H = I with late in the velocity columns of x and y; a start from
+    points taken 0.02 s late: var(x) = 0.3^2 + 0.02^2 10^2 = 0.13, cov(x, vx) = -0.02 10^2."""
+    h = object_tracker.beam_time_measurement(0.02)
+    x = np.array([1.0, 2.0, 0.3, 5.0, -4.0, 0.1])
+    np.testing.assert_allclose(h @ x, [1.1, 1.92, 0.3, 5.0, -4.0, 0.1])
+    tracker = LidarObjectTracker()
+    side = np.column_stack([np.linspace(-2.0, 2.0, 41), np.full(41, 5.0)])
+    track = tracker._start(side, np.zeros(2, bool), 1.0, late=0.02)
+    p = track.filter.p
+    assert p[0, 0] == pytest.approx(0.13) and p[1, 1] == pytest.approx(0.13)
+    assert p[0, 3] == pytest.approx(-2.0) and p[1, 4] == pytest.approx(-2.0)
+    assert p[0, 4] == 0.0 and p[3, 3] == pytest.approx(100.0)
