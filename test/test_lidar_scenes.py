@@ -298,9 +298,10 @@ def test_f1tenth_car_entering_at_speed_is_one_track_at_its_speed():
     not matched on the next scan.  Measured before the two-point start: the track was started
     anew 6 times (the one reported is the 7th), coverage 55 %; with it the first track is the
     one reported, coverage 81 %, velocity RMSE 0.09 m/s, position 3 mm; with the beam time in
-    the measurement (beam_time_measurement; the car is seen 25 ms into the scan) coverage 83 %,
-    velocity RMSE 0.15 m/s, 0.64 m/s off when first reported (0.33 before: its velocity across,
-    0.8 m beside the sensor, is read from the fits' jitter sooner)."""
+    the measurement (beam_time_measurement; the car is seen 17.5-18.7 ms into the scan)
+    coverage 83 %, velocity RMSE 0.15 m/s; when first reported its speed is 7.01 m/s for 7, its
+    velocity across -0.64 m/s (-0.32 before; it jitters by 0.5 m/s either way on the scans
+    before the report)."""
     car = SceneObject(1, 0.55, 0.3, Pieces((-1.5, 0.8, 0.0), ((3.0, 7.0, 0.0),)))
     ego = Pieces((0.0, 0.0, 0.0), ((3.0, 5.0, 0.0),))
     scene = Scene([car], ego, NO_WALLS, F1TENTH_LIDAR, 1.2, 0, 'f1tenth')
@@ -309,10 +310,10 @@ def test_f1tenth_car_entering_at_speed_is_one_track_at_its_speed():
     result = score(scans, estimates)[1]
     assert result.track_ids == [1] and result.id_switches == 0, result
     assert result.coverage > 0.7 and result.position_rmse < 0.02, result
-    assert result.velocity_rmse < 0.2, result
+    assert result.velocity_rmse < 0.25, result
     reported = [k for k, e in enumerate(estimates) if len(e.ids)]
     state, truth = estimates[reported[0]].states[0], scans[reported[0]].truth[0]
-    assert np.hypot(state[3] - truth['vx'], state[4] - truth['vy']) < 0.8, state
+    assert abs(np.hypot(state[3], state[4]) - np.hypot(truth['vx'], truth['vy'])) < 0.3, state
 
 
 def test_car_found_again_off_its_coasting_prediction_keeps_its_id():
@@ -804,30 +805,37 @@ def speeds_after_each_scan(lidar, start, speed, size=(4.5, 1.8), kind=None, scan
 
 
 @pytest.mark.parametrize('start, speed, size, kind, lidar, most', [
-    ((0.0, 5.0, np.pi), 9.5, (4.5, 1.8), None, CAR_LIDAR, 0.8),
-    ((0.0, 1.5, np.pi), 6.0, (0.55, 0.3), 'f1tenth_static', F1TENTH_LIDAR, 0.5)])
+    ((0.0, 5.0, np.pi), 9.5, (4.5, 1.8), None, CAR_LIDAR, 0.4),
+    ((0.0, 1.5, np.pi), 6.0, (0.55, 0.3), 'f1tenth_static', F1TENTH_LIDAR, 0.2)])
 def test_a_scan_taken_over_time_does_not_slow_the_velocity(start, speed, size, kind, lidar, most,
                                                            monkeypatch):
     """A car (an F1Tenth car) side-on at 5 m (1.5 m), 16 ms into the scan, driving
-    at 9.5 (6) m/s from its first scan: the mean speed error over updates 2-7.  Measured: 0.52
-    (0.34) m/s; the same object scanned at one instant 0.10 (0.05); with the beam time left
-    out of the measurement (H = I, the code before) 1.46 (0.82)."""
+    at 9.5 (6) m/s from its first scan: the mean speed error over updates 2-7.  Measured: 0.22
+    (0.09) m/s; the same object scanned at one instant 0.10 (0.05); with the beam time left
+    out of the measurement (H = I, the code before) 1.46 (0.82); in the measurement but the
+    points not moved back again after the update (the shape steps then pulled the centre back
+    towards where the predicted velocity put them) 0.52 (0.34)."""
     instant = dataclasses.replace(lidar, beams_per_turn=10 ** 9)  # time_increment ~ 0
     lag = np.mean(np.abs(speeds_after_each_scan(lidar, start, speed, size, kind)[2:] - speed))
     lag_instant = np.mean(np.abs(
         speeds_after_each_scan(instant, start, speed, size, kind)[2:] - speed))
     assert lag < most and lag_instant < 0.2, (lag, lag_instant)
-    monkeypatch.setattr(object_tracker, 'beam_time_measurement', lambda late: np.eye(6))
+    monkeypatch.setattr(object_tracker, 'beam_time_measurement',
+                        lambda late, elapsed=np.inf: np.eye(6))
     before = np.mean(np.abs(speeds_after_each_scan(lidar, start, speed, size, kind)[2:] - speed))
     assert before > 1.5 * most, before
 
 
 def test_beam_time_measurement_and_the_start_covariance_by_hand():
-    """z = p + late (v - v0): H = I with late in the velocity columns of x and y; a start from
+    """z = p + late (v - v0): H = I with late in the velocity columns of x and y (and 1 + late /
+    elapsed on the velocity's own rows, for velocity_measurement); a start from
     points taken 0.02 s late: var(x) = 0.3^2 + 0.02^2 10^2 = 0.13, cov(x, vx) = -0.02 10^2."""
     h = object_tracker.beam_time_measurement(0.02)
     x = np.array([1.0, 2.0, 0.3, 5.0, -4.0, 0.1])
     np.testing.assert_allclose(h @ x, [1.1, 1.92, 0.3, 5.0, -4.0, 0.1])
+    # velocity_measurement: (z - last) / elapsed reads v + late (v - v0) / elapsed
+    h = object_tracker.beam_time_measurement(0.02, elapsed=0.025)
+    np.testing.assert_allclose(h @ x, [1.1, 1.92, 0.3, 9.0, -7.2, 0.1])
     tracker = LidarObjectTracker()
     side = np.column_stack([np.linspace(-2.0, 2.0, 41), np.full(41, 5.0)])
     track = tracker._start(side, np.zeros(2, bool), 1.0, late=0.02)

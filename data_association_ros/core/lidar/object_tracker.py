@@ -26,9 +26,11 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 5. correct: estimate the rigid correction from the pairs (alignment: point_to_line, kabsch,
    ransac); form the fictitious measurement over the time since the track's last update and its
    noise (measurement); Kalman update with [x, y, yaw] (or, velocity_measurement, all six terms
-   as the seed), unless it fails the filter's chi-square gate; the position it reads is where
-   the object was at the points' mean time, its points having been moved back by the predicted
-   velocity (beam_time_measurement; a track starts with that covariance too);
+   as the seed), unless it fails the filter's chi-square gate; its points having been moved
+   back to the stamp by the predicted velocity v0, the position it reads is p + late (v - v0),
+   late the points' mean offset (beam_time_measurement; a track started at rest has the
+   matching covariance); after the update they are moved back again with the corrected
+   velocity for the shape steps below;
 6. the velocity settles the heading (heading_turn): when it points backwards (pi) or across
    (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
    turned round, or fitted anew along the velocity (shape.fit_at); before the heading is
@@ -104,7 +106,8 @@ from .shape import contain, corners, fit_at, fit_rectangle, rotation, sample_vis
 from .shared_clusters import Boxes, split_shared
 
 INITIAL_SIGMAS = (0.3, 0.3, 0.2, 10.0, 10.0, 1.0)
-"""Std of a new track's [x, y, yaw, vx, vy, yaw_rate] (velocity unknown)."""
+"""Std of a new track's fitted centre x, y (where it was when its points were taken), yaw, vx,
+vy, yaw_rate (velocity unknown; _start)."""
 FIT_SIGMA_PER_LENGTH = INITIAL_SIGMAS[0] / SIZE_CLASSES['car'][0]
 """Std of a fitted rectangle's centre per metre of prior length (0.3 m for a 4.5 m car, 37 mm
 for a 0.55 m F1Tenth car): the two-point start's noise (fused_start_velocity)."""
@@ -345,12 +348,12 @@ class LidarObjectTracker:
         for cluster in np.flatnonzero(free):
             if np.count_nonzero(labels == cluster) >= config.min_pairs \
                     and not occluded[cluster].all():  # maybe background between two shadows
-                started = self._start(points[labels == cluster], occluded[cluster], time,
-                                      float(np.mean(self._offsets[labels == cluster])))
+                late = float(np.mean(self._offsets[labels == cluster]))
+                started = self._start(points[labels == cluster], occluded[cluster], time, late)
                 old = None if started is None else \
                     self._found_again(started, time, before, lost.get(cluster))
                 if old is not None:
-                    self._hand_over(old, started)
+                    self._hand_over(old, started, late)
         reported = self.reported()
         for track in reported:
             track.published = True
@@ -382,15 +385,18 @@ class LidarObjectTracker:
             t for t in self.tracks if t.updated < time and self._established(t)
             and (t is taken or corrected_since(t, before))])
 
-    def _hand_over(self, old: ObjectTrack, new: ObjectTrack) -> None:
+    def _hand_over(self, old: ObjectTrack, new: ObjectTrack, late: float = 0.0) -> None:
         """The track `new`, started near `old`'s prediction (_found_again), is the same object
         found again: it takes over old's id and old's speed, along new's length axis, the way
         nearer to old's velocity (while it coasted, the yaw rate turned old's prediction; the
-        speed is what is left of it), and old is dropped.  Its pose and heading are new's fit."""
+        speed is what is left of it), and old is dropped.  Its pose and heading are new's fit,
+        its centre moved back by that velocity x `late` [s] (where the fitted points were seen
+        after the stamp, as in _start)."""
         self.tracks = [t for t in self.tracks if t is not old]
         new.continue_from(old)
         self._next_id -= 1
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
+        new.filter.x[:2] -= late * new.filter.x[3:5]
 
     def _established(self, track: ObjectTrack) -> bool:
         """Updated on min_hits scans, or continuing an older track's id (its object was
@@ -621,7 +627,8 @@ class LidarObjectTracker:
             points = points.copy()
             points[member] -= self._offsets[member, None] * x[3:5]
         scan = points[member]
-        sample = scan[evenly(len(scan), config.max_match_points)]
+        pick = evenly(len(scan), config.max_match_points)
+        sample = scan[pick]
         boundary = track.boundary(config.boundary_spacing, config.max_boundary_points,
                                   self.sensor)
         low, high = sample.min(axis=0) - 1.0, sample.max(axis=0) + 1.0
@@ -642,7 +649,7 @@ class LidarObjectTracker:
         rows = slice(None) if config.velocity_measurement else slice(0, 3)
         # the points were moved back by the predicted velocity: z reads the position at the
         # stamp plus (v - predicted v) x the beams' mean offset (beam_time_measurement)
-        h = beam_time_measurement(float(np.mean(self._offsets[member])))[rows]
+        h = beam_time_measurement(float(np.mean(self._offsets[member])), elapsed)[rows]
         track.filter.h = h
         track.filter.r = measurement_covariance(correction.covariance, elapsed,
                                                 config.measurement_sigmas())[rows, rows]
@@ -653,6 +660,11 @@ class LidarObjectTracker:
         before = x[2]
         track.filter.update(z[rows] + h @ x - x[rows])  # its innovation at x: z - x
         x = track.filter.x
+        if np.any(self._offsets[member]):  # moved back again, with the corrected velocity
+            points[member] += self._offsets[member, None] * (compensation - x[3:5])
+            scan = points[member]
+            sample = scan[pick]
+            compensation = x[3:5].copy()
         track.swung += wrap_angle(x[2] - before)
         turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
                                      FLIP_RATE * max(config.priors()),
@@ -780,10 +792,10 @@ class LidarObjectTracker:
 
     def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float, late: float = 0.0
                ) -> Optional[ObjectTrack]:
-        """A new track from one cluster (at rest, INITIAL_SIGMAS), or None (background).  Its
-        points were taken `late` [s] after `time` (their mean offset): the fitted centre is the
-        position at time + late, p + late v, so the start's covariance is that of
-        beam_time_measurement(late) x (the centre, v = 0)."""
+        """A new track from one cluster, or None (background).  At rest; its points were taken
+        `late` [s] after `time` (their mean offset), so the fitted centre c is the position at
+        time + late, p + late v: with B = beam_time_measurement(late), x = B^-1 (c, 0) and P =
+        B^-1 diag(INITIAL_SIGMAS^2) B^-T (var(x) = 0.3^2 + late^2 10^2, cov(x, vx) = -late 10^2)."""
         fit = self._fit(cluster, occluded)
         if fit is None:
             return None
@@ -927,16 +939,19 @@ def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:
     return float(np.hypot(*velocity)) * (1.0 if axis @ velocity >= 0 else -1.0) * axis
 
 
-def beam_time_measurement(late: float) -> np.ndarray:
+def beam_time_measurement(late: float, elapsed: float = np.inf) -> np.ndarray:
     """H (6, 6) of the fictitious measurement of a track whose points were taken `late` [s]
-    after the stamp (their mean offset) and moved back by the predicted velocity v0: it reads
-    z = p + late (v - v0), i.e. z + late v0 = H x with H = I, H[0, 3] = H[1, 4] = late.
+    after the stamp (their mean offset) and moved back by the predicted velocity v0: its
+    position reads z = p + late (v - v0), i.e. z + late v0 = H x with H = I, H[0, 3] = H[1, 4]
+    = late; its velocity (z - last) / elapsed (velocity_measurement; `elapsed` [s] since the
+    last update) reads v + late (v - v0) / elapsed: H[3, 3] = H[4, 4] = 1 + late / elapsed.
     Without it (H = I), the start reads the object ahead by v late (its points not moved
     back); as the predicted velocity grows they are moved back more and the object seems to
     move less than it does (a car at 9.5 m/s seen 16 ms into the scan: 6.4 m/s after 2
     updates; with it 8.5; the same car scanned at one instant 9.3)."""
     h = np.eye(6)
     h[0, 3] = h[1, 4] = late
+    h[3, 3] = h[4, 4] = 1.0 + late / elapsed
     return h
 
 
