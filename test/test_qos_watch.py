@@ -57,7 +57,7 @@ def seen(graph, node, topics) -> bool:
         names = [info.node_name for info in node.get_publishers_info_by_topic(topic) +
                  node.get_subscriptions_info_by_topic(topic)]
         return 'other' in names and UNKNOWN_NODE not in names
-    return graph.spin_until(lambda: all(known(topic) for topic in topics), 20.0)
+    return graph.spin_until(lambda: all(known(topic) for topic in topics), LEASE_WAIT)
 
 
 @pytest.fixture
