@@ -24,9 +24,9 @@ from data_association_ros.pipelines.lidar_tracking import LidarTracking, PoseHis
 NO_WALLS = np.zeros((0, 2, 2))
 
 
-def one_car_scene(start, speed=8.0, sensor=None, duration=2.0, size=(4.5, 1.8)):
+def one_car_scene(start, speed=8.0, sensor=None, duration=2.0, size=(4.5, 1.8), lidar=CAR_LIDAR):
     return Scene([SceneObject(1, *size, Pieces(start, ((duration + 1, speed, 0.0),)))], sensor,
-                 NO_WALLS, CAR_LIDAR, duration, 0)
+                 NO_WALLS, lidar, duration, 0)
 
 
 def scores_of(scene, config=TrackerConfig()):
@@ -791,8 +791,7 @@ def test_tracks_corrected_on_the_previous_scan_take_their_clusters_first():
 def speeds_after_each_scan(lidar, start, speed, size=(4.5, 1.8), kind=None, scans=8):
     """|velocity| of the one track after each of the first `scans` scans of one object driving
     straight from `start` at `speed`, seen by `lidar` from the origin (offsets passed)."""
-    scene = Scene([SceneObject(1, *size, Pieces(start, ((3.0, speed, 0.0),)))], None, NO_WALLS,
-                  lidar, 1.0, 0)
+    scene = one_car_scene(start, speed, duration=1.0, size=size, lidar=lidar)
     tracker = LidarObjectTracker(TrackerConfig() if kind is None
                                  else configuration(kind, TrackerConfig()))
     speeds = []

@@ -47,6 +47,16 @@ def range_bearing_problem(seed: int, joint: bool) -> AssociationProblem:
     return AssociationProblem(landmarks, observations, pose, state, [0.0, 1e-9, 0.3][seed % 3])
 
 
+def problem_with_nis(nis: np.ndarray):
+    """range_bearing_problem(0) with its NIS matrix (k, n) replaced and its first n landmarks,
+    or None when it has fewer than n."""
+    n = nis.shape[1]
+    problem = range_bearing_problem(0, False)
+    problem.__dict__['nis'] = nis
+    problem.landmarks = problem.landmarks.subset(np.arange(min(n, len(problem.landmarks))))
+    return problem if len(problem.landmarks) == n else None
+
+
 @pytest.mark.parametrize('compiled', [True, False])
 @settings(max_examples=60, deadline=None)
 @given(k=st.integers(0, 6), n=st.integers(0, 6), data=st.data())
@@ -54,10 +64,8 @@ def test_nearest_within_is_nearest_neighbours_inside_the_gate(compiled, k, n, da
     """Ties, inf and values on the bound included; K = 0 and N = 0 too; the kernel and the
     numpy form."""
     nis = np.array(data.draw(st.lists(NIS_VALUES, min_size=k * n, max_size=k * n))).reshape(k, n)
-    problem = range_bearing_problem(0, False)
-    problem.__dict__['nis'] = nis
-    problem.landmarks = problem.landmarks.subset(np.arange(min(n, len(problem.landmarks))))
-    if len(problem.landmarks) < n:
+    problem = problem_with_nis(nis)
+    if problem is None:
         return
     gated = nis <= 9.21
     expected = result(problem, 'x', nearest_neighbours(nis, gated, False), gated)
@@ -225,10 +233,8 @@ def test_gnn_solves_only_competing_pairs_as_the_whole_matrix(compiled, k, n, tie
         else st.floats(0.0, 30.0)
     nis = np.array(data.draw(st.lists(values, min_size=k * n, max_size=k * n)),
                    dtype=float).reshape(k, n)
-    problem = range_bearing_problem(0, False)
-    problem.__dict__['nis'] = nis
-    problem.landmarks = problem.landmarks.subset(np.arange(min(n, len(problem.landmarks))))
-    if len(problem.landmarks) < n:
+    problem = problem_with_nis(nis)
+    if problem is None:
         return
     gated = nis <= gate
     expected = result(problem, 'gnn', full_matrix_gnn(nis, gate), gated)
@@ -254,9 +260,7 @@ def test_gnn_on_a_tie_picks_an_optimum_the_same_in_both_forms():
     landmark 4.  Both forms of the reduced one give the same pairs."""
     gate = chi2.ppf(0.99, 2)
     nis = np.array([[10.0, 1, 1, 1, 1, 1, 1, 0], [10.0, 1, 1, 1, 1, 1, 1, 0]])
-    problem = range_bearing_problem(0, False)
-    problem.__dict__['nis'] = nis
-    problem.landmarks = problem.landmarks.subset(np.arange(8))
+    problem = problem_with_nis(nis)
     answers = []
     for compiled in (True, False):
         with jit.compiled(compiled):

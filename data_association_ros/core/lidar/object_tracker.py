@@ -346,10 +346,11 @@ class LidarObjectTracker:
         self._continue_confirmed(time)
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
-            if np.count_nonzero(labels == cluster) >= config.min_pairs \
+            member = labels == cluster
+            if np.count_nonzero(member) >= config.min_pairs \
                     and not occluded[cluster].all():  # maybe background between two shadows
-                late = float(np.mean(self._offsets[labels == cluster]))
-                started = self._start(points[labels == cluster], occluded[cluster], time, late)
+                late = float(np.mean(self._offsets[member]))
+                started = self._start(points[member], occluded[cluster], time, late)
                 old = None if started is None else \
                     self._found_again(started, time, before, lost.get(cluster))
                 if old is not None:
@@ -623,7 +624,8 @@ class LidarObjectTracker:
         x = track.filter.x
         compensation = x[3:5].copy()  # the velocity the points are moved back with
         member = np.isin(labels, clusters)
-        if np.any(self._offsets[member]):  # the object moved while the beam turned
+        moving = bool(np.any(self._offsets[member]))  # the object moved while the beam turned
+        if moving:
             points = points.copy()
             points[member] -= self._offsets[member, None] * x[3:5]
         scan = points[member]
@@ -660,7 +662,7 @@ class LidarObjectTracker:
         before = x[2]
         track.filter.update(z[rows] + h @ x - x[rows])  # its innovation at x: z - x
         x = track.filter.x
-        if np.any(self._offsets[member]):  # moved back again, with the corrected velocity
+        if moving:  # moved back again, with the corrected velocity
             points[member] += self._offsets[member, None] * (compensation - x[3:5])
             scan = points[member]
             sample = scan[pick]
