@@ -86,7 +86,10 @@ def cdr(msg: PointCloud2, order: str) -> bytes:
 
 class Graph:
     """Owns a context, an executor, the node(s) under test and a test node with publishers to
-    landmarks/observations/robot_pose/state_covariance and subscriptions to the outputs."""
+    landmarks/observations/robot_pose/state_covariance and subscriptions to the outputs.
+    close() destroys the nodes added to it: a node made in its context and not added outlives
+    it, and so do its DDS participant and endpoints, seen by later tests until it is
+    garbage-collected."""
 
     def __init__(self, namespace: str = '') -> None:
         self.context = Context()
