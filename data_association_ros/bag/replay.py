@@ -248,7 +248,10 @@ def main(argv: Optional[list[str]] = None) -> int:
         print(f'da_bag_replay: association_node died:\n{result.node_log[-2000:]}', file=sys.stderr)
         return 1
     if result.restarted_after is not None:
-        print(f'node killed and restarted after message {result.restarted_after}')
+        sent_ns = [ns for t, _, ns in result.recorded if t == topics.OBSERVATIONS]
+        print(f'node killed and restarted after message {result.restarted_after} (at '
+              f'{sent_ns[result.restarted_after - 1] / 1e9:.3f} s; the last message sent at '
+              f'{sent_ns[-1] / 1e9:.3f} s, system clock as in the node log)')
         # the restarted node must answer again: nothing unanswered after the first gap
         if len(gaps) <= 1 and (not gaps or gaps[0][1] < result.sent - 1):
             return 0
