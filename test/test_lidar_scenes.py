@@ -17,7 +17,8 @@ from data_association_ros.core.lidar.object_tracker import (SETTLE_TIME, SLOW_VO
                                                              FIT_SIGMA_PER_LENGTH, across_spread,
                                                              extent_covariance,
                                                              fused_start_velocity, heading_turn,
-                                                             no_slip, plausible_turn, vague)
+                                                             no_slip, plausible_turn, refit_along,
+                                                             vague)
 from data_association_ros.core.tracking.kalman import KalmanFilter
 from data_association_ros.pipelines.lidar_tracking import LidarTracking, PoseHistory, to_frame
 
@@ -658,6 +659,72 @@ def test_an_f1tenth_car_found_again_keeps_its_id_and_speed():
     result = score(scans, estimates)[1]
     assert result.track_ids == [1] and result.id_switches == 0, result
     assert result.velocity_rmse < 0.1 and result.position_rmse < 0.01, result
+
+
+def test_refit_along_by_hand():
+    """Axes, not directions: a fit at 0.9 rad against a settled 0 is 51.6 deg across (refit),
+    at 0.7 rad 40.1 deg (kept), at pi + 1.2 68.8 deg (refit), at pi - 0.1 5.7 deg (kept).  A
+    fit at 1 rad of a line across it (direction 1 + pi/2) spreads L sin(1 + pi/2) across the
+    old heading 0: 2.3 m is more than WIDTH_SLACK x 1.8 m = 2.25 m, no car seen along it
+    (kept); 2.2 m is (refit).  A fit at pi/2 of a line along it, 1.9 m, longer than the prior
+    width, was no ambiguous fit (kept); 1.7 m was (refit)."""
+    def line(length, direction):
+        return [10.0, 0.0] + np.outer(np.linspace(0.0, length, 5),
+                                      [np.cos(direction), np.sin(direction)])
+    short = line(0.28, np.pi / 4)
+    assert refit_along(0.9, 0.0, short, 1.8)
+    assert not refit_along(0.7, 0.0, short, 1.8)
+    assert refit_along(np.pi + 1.2, 0.0, short, 1.8)
+    assert not refit_along(np.pi - 0.1, 0.0, short, 1.8)
+    across = 1.0 + np.pi / 2
+    assert not refit_along(1.0, 0.0, line(2.3 / np.sin(across), across), 1.8)
+    assert refit_along(1.0, 0.0, line(2.2 / np.sin(across), across), 1.8)
+    assert not refit_along(np.pi / 2, 0.0, line(1.9, np.pi / 2), 1.8)
+    assert refit_along(np.pi / 2, 0.0, line(1.7, np.pi / 2), 1.8)
+
+
+def test_a_car_found_again_fitted_across_keeps_its_axis(monkeypatch):
+    """car_static seed 1021 object 1 (1.95 m/s at 29 m) comes back from 1 s behind something;
+    the track started from its first 5 returns was fitted 90 deg off and handed the coasting
+    track's id and speed along that axis: the box stayed across the car for 14 scans (heading
+    RMSE 42 deg, position 0.72 m).  Fitted again along the old track's settled axis
+    (refit_along): heading RMSE under 1 deg, position under 0.3 m."""
+    scans = scans_from_messages(KINDS['car_static'](1021).messages())
+    config = configuration('car_static', TrackerConfig())
+    result = score(scans, run_offline(scans, config)[0])[1]
+    assert result.id_switches == 0 and result.heading_rmse_deg < 1.0, result
+    assert result.position_rmse < 0.3 and result.velocity_rmse < 0.8, result
+    monkeypatch.setattr(object_tracker, 'refit_along', lambda *args: False)
+    before = score(scans, run_offline(scans, config)[0])[1]
+    assert before.heading_rmse_deg > 20.0, before
+
+
+def test_a_refit_farther_from_the_coasting_prediction_is_not_taken():
+    """f1tenth_moving seed 1000 object 1, found again 2.5 m from the sensor after 1.5 s behind
+    another car: 5 returns fitted at 180 deg against a coasted heading of -52 deg.  fit_at
+    along -52 deg extends them away from the sensor, 0.5 m from the car (velocity RMSE 1.05
+    m/s when taken); that rectangle's centre is farther from the coasting track's prediction
+    than the fit's, so the fit stays (_hand_over): within the limits, as before refit_along."""
+    scans = scans_from_messages(KINDS['f1tenth_moving'](1000).messages())
+    result = score(scans, run_offline(scans, configuration('f1tenth_moving',
+                                                           TrackerConfig()))[0])[1]
+    assert result.id_switches == 0 and result.velocity_rmse < 0.3, result
+    assert result.position_rmse < 0.05 and result.heading_rmse_deg < 5.0, result
+
+
+def test_a_heading_coasted_round_a_bend_does_not_refit_the_car_found_again(monkeypatch):
+    """race seed 1175 object 2 comes back after 1.25 s behind the other car, on the straight
+    after a bend: its coasting track's heading turned on with the bend's yaw rate, 130 deg since
+    its last update, and its 6 returns were fitted right (180 deg).  Fitted again along the
+    coasted heading, the box was 68 deg off (heading RMSE 4.5 -> 6.6 deg); beyond
+    TRUSTED_COAST_TURN (45 deg) the fit stays: within the limits."""
+    scans = scans_from_messages(KINDS['race'](1175).messages())
+    config = configuration('race', TrackerConfig())
+    result = score(scans, run_offline(scans, config)[0])[2]
+    assert result.id_switches == 0 and result.heading_rmse_deg < 5.0, result
+    monkeypatch.setattr(object_tracker, 'TRUSTED_COAST_TURN', np.inf)
+    before = score(scans, run_offline(scans, config)[0])[2]
+    assert before.heading_rmse_deg > 5.0, before
 
 
 def test_vague_by_hand():

@@ -163,6 +163,12 @@ on the shape alone takes a spread across it beyond the middle of the prior width
 seen length to the spread across it (race seed 424: 0.38 m across an F1Tenth car 9 deg off).
 Neither applies when WIDTH_SLACK x the prior width is not below the prior length (a
 pedestrian's square prior: either axis fits)."""
+TRUSTED_COAST_TURN = np.pi / 4
+"""A coasting track whose predicted heading turned by more than this [rad] since its last
+update no longer tells the axis of the object found again (_hand_over): the yaw rate of a bend
+carried on past it (race seeds 0, 226, 609, 704, 1175: 80-167 deg turned over 0.8-1.9 s, the
+fit right; the returns fitted again along the coasted heading were 90 deg off), while a
+heading that turned 25-33 deg (car_static 1021, race 516, 1128, 1236, 1239) still did."""
 SLOW_VOTE = -1.0
 """heading_turn's vote for "too slow to tell" (not a turn it can return)."""
 SETTLE_TIME = 0.5
@@ -354,7 +360,7 @@ class LidarObjectTracker:
                 old = None if started is None else \
                     self._found_again(started, time, before, lost.get(cluster))
                 if old is not None:
-                    self._hand_over(old, started, late)
+                    self._hand_over(old, started, late, points[member], occluded[cluster])
         reported = self.reported()
         for track in reported:
             track.published = True
@@ -386,16 +392,35 @@ class LidarObjectTracker:
             t for t in self.tracks if t.updated < time and self._established(t)
             and (t is taken or corrected_since(t, before))])
 
-    def _hand_over(self, old: ObjectTrack, new: ObjectTrack, late: float = 0.0) -> None:
-        """The track `new`, started near `old`'s prediction (_found_again), is the same object
-        found again: it takes over old's id and old's speed, along new's length axis, the way
-        nearer to old's velocity (while it coasted, the yaw rate turned old's prediction; the
-        speed is what is left of it), and old is dropped.  Its pose and heading are new's fit,
-        its centre moved back by that velocity x `late` [s] (where the fitted points were seen
-        after the stamp, as in _start)."""
+    def _hand_over(self, old: ObjectTrack, new: ObjectTrack, late: float = 0.0,
+                   cluster: Optional[np.ndarray] = None,
+                   occluded: Optional[np.ndarray] = None) -> None:
+        """The track `new`, started near `old`'s prediction (_found_again) from `cluster` (K, 2;
+        `occluded` its ends' flags), is the same object found again: it takes over old's id
+        and old's speed, along new's length axis, the way nearer to old's velocity (while it
+        coasted, the yaw rate turned old's prediction; the speed is what is left of it), and
+        old is dropped.  Its pose and heading are new's fit, its centre moved back by that
+        velocity x `late` [s] (where the fitted points were seen after the stamp, as in
+        _start).  A fit across the heading old had settled, and not turned by more than
+        TRUSTED_COAST_TURN since, is fitted again along old's axis when the cluster allows it
+        (refit_along) and that rectangle's centre lies nearer to old's prediction: a few returns of a car coming back from behind something fit either
+        axis (car_static seed 1021 object 1: 5 returns at 29 m fitted 90 deg off, the car's
+        speed handed across it), but fit_at extends them away from the sensor, which may be
+        the wrong way (f1tenth_moving seed 1000 object 1, 2.5 m from the sensor: 0.5 m off)."""
         self.tracks = [t for t in self.tracks if t is not old]
         new.continue_from(old)
         self._next_id -= 1
+        if cluster is not None and old.settled and \
+                abs(wrap_angle(old.filter.x[2] - old.last[2])) <= TRUSTED_COAST_TURN and \
+                refit_along(new.filter.x[2], old.filter.x[2], cluster, self.config.priors()[1]):
+            centre, yaw, length, width = fit_at(cluster, old.filter.x[2], *self.config.priors(),
+                                                sensor=self.sensor, occluded=occluded)
+            predicted = old.filter.x[:2]
+            if np.hypot(*(centre - predicted)) < np.hypot(*(new.filter.x[:2] - predicted)):
+                new.filter.x[:3] = [centre[0], centre[1], yaw]
+                new.length, new.width = length, width
+                new.anchor = (cluster.mean(axis=0) - centre) @ rotation(yaw)
+                new.last = new.filter.x[:3].copy()
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
         new.filter.x[:2] -= late * new.filter.x[3:5]
 
@@ -842,6 +867,20 @@ def across_spread(points: np.ndarray, yaw: float) -> float:
     """The points' (K, 2) extent [m] across the heading yaw: ptp of points . (-sin yaw, cos yaw),
     the left normal (rotation(yaw)'s second column)."""
     return float(np.ptp(points @ rotation(yaw)[:, 1]))
+
+
+def refit_along(yaw: float, old_yaw: float, cluster: np.ndarray, prior_width: float) -> bool:
+    """Whether a rectangle fitted at `yaw` [rad] to `cluster` (K, 2) is to be fitted again along
+    `old_yaw`, the settled heading of the track it continues (_hand_over): their axes more than
+    45 deg apart (|wrap(2 (yaw - old_yaw))| > pi / 2; an axis, not a direction), the fit
+    ambiguous (the cluster's extent along yaw, across_spread(yaw + pi / 2), within prior_width
+    [m]: the fit could as well have taken it for the width) and the cluster's spread across
+    old_yaw within WIDTH_SLACK x prior_width (race seed 1159: 5 returns 0.42 m along an
+    F1Tenth car's side, its length, were fitted again as its end along a heading coasted
+    0.8 s round a bend)."""
+    return abs(wrap_angle(2 * (yaw - old_yaw))) > np.pi / 2 and \
+        across_spread(cluster, yaw + np.pi / 2) <= prior_width and \
+        across_spread(cluster, old_yaw) <= WIDTH_SLACK * prior_width
 
 
 def plausible_turn(points: np.ndarray, yaw: float, velocity: np.ndarray, turn: float,
