@@ -700,7 +700,7 @@ def test_a_car_found_again_fitted_across_keeps_its_axis(monkeypatch):
 
 
 def test_a_refit_farther_from_the_coasting_prediction_is_not_taken():
-    """f1tenth_moving seed 1000 object 1, found again 2.5 m from the sensor after 1.5 s behind
+    """f1tenth_moving seed 1000 object 1, found again 2.4 m from the sensor after 1.5 s behind
     another car: 5 returns fitted at 180 deg against a coasted heading of -52 deg.  fit_at
     along -52 deg extends them away from the sensor, 0.5 m from the car (velocity RMSE 1.05
     m/s when taken); that rectangle's centre is farther from the coasting track's prediction

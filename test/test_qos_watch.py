@@ -1,5 +1,6 @@
 """The nodes' endpoints carry no event handlers; QosWatch reports, from the graph, the
 incompatible QoS and types rclpy's default handlers reported (real rclpy, loopback DDS)."""
+import contextlib
 import os
 import subprocess
 import sys
@@ -25,16 +26,25 @@ from msg_adapters import array_to_cloud
 from ros_harness import Graph
 
 
-@pytest.fixture
-def other():
+@contextlib.contextmanager
+def node_of_its_own(name: str):
     """A node in a context of its own (its own DDS participant, as another process would be:
-    one participant refuses a second type on a topic)."""
+    one participant refuses a second type on a topic), destroyed on leaving, failed or not (a
+    node left alive keeps its endpoints in the graph)."""
     context = Context()
     rclpy.init(context=context)
-    node = rclpy.create_node('other', context=context)
-    yield node
-    node.destroy_node()
-    rclpy.shutdown(context=context)
+    node = rclpy.create_node(name, context=context)
+    try:
+        yield node
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+
+
+@pytest.fixture
+def other():
+    with node_of_its_own('other') as node:
+        yield node
 
 
 @pytest.mark.parametrize('node_class', [AssociationNode, EkfSlamNode, BoxTrackerNode,
@@ -279,41 +289,33 @@ def test_a_publisher_replaced_between_two_looks_and_undiscovered_nodes_are_repor
     their node (several on one topic) are looked at again, nothing raised or lost."""
     graph, node, warnings = watched
     for attempt in range(6):    # two publishers of a node just started, looked at at once
-        context = Context()
-        rclpy.init(context=context)
-        other = rclpy.create_node(f'driver{attempt}', context=context)
-        for _ in range(2):
-            other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
-        assert graph.spin_until(lambda: node.count_publishers('/observations') == 2, 20.0), \
-            publishers_of(node, '/observations')
-        node.qos_watch.check()
-        assert graph.spin_until(
-            lambda: node.qos_watch.check() is None or len(warnings) == 2 * attempt + 2)
-        assert all(f'(node /driver{attempt})' in text for text in warnings[-2:])
-        other.destroy_node()
-        rclpy.shutdown(context=context)
+        with node_of_its_own(f'driver{attempt}') as other:
+            for _ in range(2):
+                other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+            assert graph.spin_until(lambda: node.count_publishers('/observations') == 2,
+                                    20.0), publishers_of(node, '/observations')
+            node.qos_watch.check()
+            assert graph.spin_until(
+                lambda: node.qos_watch.check() is None or len(warnings) == 2 * attempt + 2)
+            assert all(f'(node /driver{attempt})' in text for text in warnings[-2:])
         # in one process they leave at once (measured: 0.0 s in 20 tries under load); the
         # lease wait is for a participant elsewhere whose goodbye was lost
         assert graph.spin_until(lambda: node.count_publishers('/observations') == 0,
                                 LEASE_WAIT), publishers_of(node, '/observations')
     warnings.clear()
     # a reliable publisher, looked at, then replaced by a best-effort one: count 1 -> 1
-    context = Context()
-    rclpy.init(context=context)
-    other = rclpy.create_node('driver', context=context)
-    reliable = other.create_publisher(PointCloud2, 'observations', 10)
-    assert graph.spin_until(lambda: node.count_publishers('/observations') == 1, 20.0), \
-        publishers_of(node, '/observations')
-    graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
-    assert warnings == []
-    other.destroy_publisher(reliable)
-    other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
-    assert graph.spin_until(lambda: [info.qos_profile.reliability for info in
-                                     node.get_publishers_info_by_topic('/observations')
-                                     if info.node_name == 'driver'] ==
-                            [qos_profile_sensor_data.reliability], 5.0)
-    for _ in range(FULL_CHECK_EVERY):
-        node.qos_watch.check()
-    assert len(warnings) == 1 and "'/observations' (node /driver)" in warnings[0]
-    other.destroy_node()
-    rclpy.shutdown(context=context)
+    with node_of_its_own('driver') as other:
+        reliable = other.create_publisher(PointCloud2, 'observations', 10)
+        assert graph.spin_until(lambda: node.count_publishers('/observations') == 1, 20.0), \
+            publishers_of(node, '/observations')
+        graph.spin_until(lambda: node.qos_watch.check() is None, 0.5)
+        assert warnings == []
+        other.destroy_publisher(reliable)
+        other.create_publisher(PointCloud2, 'observations', qos_profile_sensor_data)
+        assert graph.spin_until(lambda: [info.qos_profile.reliability for info in
+                                         node.get_publishers_info_by_topic('/observations')
+                                         if info.node_name == 'driver'] ==
+                                [qos_profile_sensor_data.reliability], 5.0)
+        for _ in range(FULL_CHECK_EVERY):
+            node.qos_watch.check()
+        assert len(warnings) == 1 and "'/observations' (node /driver)" in warnings[0]

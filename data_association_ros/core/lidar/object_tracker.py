@@ -403,10 +403,11 @@ class LidarObjectTracker:
         velocity x `late` [s] (where the fitted points were seen after the stamp, as in
         _start).  A fit across the heading old had settled, and not turned by more than
         TRUSTED_COAST_TURN since, is fitted again along old's axis when the cluster allows it
-        (refit_along) and that rectangle's centre lies nearer to old's prediction: a few returns of a car coming back from behind something fit either
-        axis (car_static seed 1021 object 1: 5 returns at 29 m fitted 90 deg off, the car's
-        speed handed across it), but fit_at extends them away from the sensor, which may be
-        the wrong way (f1tenth_moving seed 1000 object 1, 2.5 m from the sensor: 0.5 m off)."""
+        (refit_along) and that rectangle's centre lies nearer to old's prediction: a few
+        returns of a car coming back from behind something fit either axis (car_static seed
+        1021 object 1: 5 returns at 29 m fitted 90 deg off, the car's speed handed across it),
+        but fit_at extends them away from the sensor, which may be the wrong way
+        (f1tenth_moving seed 1000 object 1, 2.4 m from the sensor: 0.5 m off)."""
         self.tracks = [t for t in self.tracks if t is not old]
         new.continue_from(old)
         self._next_id -= 1
