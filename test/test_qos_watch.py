@@ -26,6 +26,11 @@ from msg_adapters import array_to_cloud
 from ros_harness import Graph
 
 
+LEASE_WAIT = 30.0
+"""Seconds to wait for the endpoints of a participant shut down to leave the graph: longer than
+Fast DDS's default participant lease (20 s), which ends them when the goodbye was lost."""
+
+
 @contextlib.contextmanager
 def node_of_its_own(name: str):
     """A node in a context of its own (its own DDS participant, as another process would be:
@@ -62,8 +67,9 @@ def test_the_nodes_wait_on_no_event_handlers(node_class):
 
 def seen(graph, node, topics) -> bool:
     """Spin until each topic has an endpoint of 'other' and none whose node is unknown yet.
-    (Endpoints of nodes destroyed by an earlier test may linger in the graph until their
-    participant's lease ends: of our own nodes, compatible, they are no reason to wait.)"""
+    (Endpoints of another process's participant whose goodbye was lost linger until its lease
+    ends; in this process a destroyed node's endpoints leave at once, a node never destroyed
+    keeps them (Graph).  Compatible ones of our own nodes are no reason to wait.)"""
     def known(topic):
         names = [info.node_name for info in node.get_publishers_info_by_topic(topic) +
                  node.get_subscriptions_info_by_topic(topic)]
@@ -199,10 +205,6 @@ def test_system_default_policies_are_compared_as_fast_dds_applies_them(watched):
         ReliabilityPolicy.BEST_EFFORT, DurabilityPolicy.VOLATILE,
         LivelinessPolicy.MANUAL_BY_TOPIC)
 
-
-LEASE_WAIT = 30.0
-"""Seconds to wait for the endpoints of a participant shut down to leave the graph: longer than
-Fast DDS's default participant lease (20 s), which ends them when the goodbye was lost."""
 
 MANUAL_BY_PARTICIPANT_PROFILES = """<?xml version="1.0" encoding="UTF-8" ?>
 <profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
