@@ -106,6 +106,64 @@ def test_face_tolerance_joins_no_step_longer_than_longest_step():
                             longest_step=3.3), [0] * 12)
 
 
+def test_a_car_side_lined_up_with_a_wall_behind_is_not_joined_to_the_wall():
+    """car_moving seed 1098 object 4 by hand: a 5.0 m x 1.74 m car heading -101.8 deg, its
+    front 4.5 m and its side at a grazing angle from the sensor at (0.46, 0), a wall 1.45 m
+    behind its rear along y = 11.03.  The side's returns are up to 1.7 m apart; the first
+    return past the car's far corner lands on the wall 0.02 m off the side's line, so the face
+    went on through it and took the whole wall (in the seed's scan: one cluster 14 m long,
+    whose track then held the car's returns for the rest of the run).  The side recedes
+    towards that return, and the wall's returns past it turn 78 deg off the side's line: the
+    car's outline ends there (ends_receding)."""
+    sensor = np.array([0.46, 0.0])
+    car = rectangle_segments(np.array([3.05, 7.13]), np.deg2rad(-101.8), length=5.0, width=1.74)
+    wall = np.array([[[-12.0, 11.03], [6.0, 11.03]]])
+    angles = np.deg2rad(np.arange(60.0, 120.0, 0.25))
+    ranges, hit = raycast(sensor, angles, np.concatenate([car, wall]), 60.0)
+    points = sensor + np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+    on_car, on_wall = np.flatnonzero((hit >= 0) & (hit < 4)), np.flatnonzero(hit == 4)
+    steps = np.hypot(*np.diff(points[on_car], axis=0).T)
+    assert steps.max() > 1.5 and (steps > 0.3).sum() >= 3   # the side: beyond the gap
+    past = points[on_car[-1] + 1]                              # the wall's first return
+    side = points[on_car[-1]] - points[on_car[-2]]
+    offset = past - points[on_car[-1]]
+    assert abs(side[0] * offset[1] - side[1] * offset[0]) / np.hypot(*side) < 0.1
+    for order in (slice(None), slice(None, None, -1)):        # either way round
+        labels = np.empty(len(points), int)
+        labels[order] = cluster_consecutive(points[order], gap=0.3, min_points=3,
+                                            face_tolerance=0.1, longest_step=18.0,
+                                            sensor=sensor)
+        assert np.all(labels[on_car] == labels[on_car[0]]) and labels[on_car[0]] >= 0
+        assert not np.any(labels[on_wall] == labels[on_car[0]])
+
+
+@settings(max_examples=300, deadline=None)
+@given(distance=st.floats(4.0, 30.0), bearing=st.floats(-np.pi, np.pi),
+       heading=st.floats(-np.pi, np.pi), length=st.floats(3.8, 5.2), width=st.floats(1.6, 2.0),
+       behind=st.floats(0.5, 4.0), tilt=st.floats(-0.3, 0.3))
+def test_no_cluster_holds_a_car_and_a_wall_behind_it(distance, bearing, heading, length, width,
+                                                     behind, tilt):
+    """A car anywhere around the sensor, a wall across the line of sight `behind` m or more
+    beyond every point of the car (tilted by up to 0.3 rad), 0.25 deg beams: no cluster holds
+    returns of both, whichever way the car's faces line up with the wall (without
+    ends_receding it fails within the 300 draws: a car 7-8 m out seen nearly end-on, its
+    side's line through the wall's first return)."""
+    sight = np.array([np.cos(bearing), np.sin(bearing)])
+    car = rectangle_segments(distance * sight, heading, length, width)
+    normal = np.array([np.cos(bearing + tilt), np.sin(bearing + tilt)])
+    level = np.max(car[:, 0] @ normal) + behind        # the wall: normal . p = level
+    along = np.array([-normal[1], normal[0]])
+    wall = (normal * level + np.outer([-40.0, 40.0], along))[None]
+    angles = np.arange(-np.pi, np.pi, np.deg2rad(0.25))
+    ranges, hit = raycast(np.zeros(2), angles, np.concatenate([car, wall]), 80.0)
+    with np.errstate(invalid='ignore'):   # no return: inf x 0
+        points = np.column_stack([ranges * np.cos(angles), ranges * np.sin(angles)])
+    labels = cluster_consecutive(points, gap=0.3, min_points=3, face_tolerance=0.1,
+                                 longest_step=18.0)
+    on_car = labels[(hit >= 0) & (hit < 4)]
+    assert not set(on_car[on_car >= 0]) & set(labels[hit == 4])
+
+
 def scan_points(scan):
     """LaserScan -> (K, 2) points in the laser frame (inf ranges stay inf)."""
     ranges = np.asarray(scan.ranges, dtype=float)

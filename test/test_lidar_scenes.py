@@ -11,7 +11,8 @@ from data_association_ros.bag.lidar_motion import Pieces, Stadium
 from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, KINDS, Scene,
                                                          SceneObject, race_scene, random_scene)
 from data_association_ros.bag.lidar_seeds import configuration
-from data_association_ros.core.lidar import LidarObjectTracker, TrackerConfig, object_tracker
+from data_association_ros.core.lidar import (LidarObjectTracker, TrackerConfig, clustering,
+                                             object_tracker)
 from data_association_ros.core.lidar.measurement import lateral_velocity
 from data_association_ros.core.lidar.object_tracker import (SETTLE_TIME, SLOW_VOTE, ObjectTrack,
                                                              FIT_SIGMA_PER_LENGTH, across_spread,
@@ -725,6 +726,25 @@ def test_a_heading_coasted_round_a_bend_does_not_refit_the_car_found_again(monke
     monkeypatch.setattr(object_tracker, 'TRUSTED_COAST_TURN', np.inf)
     before = score(scans, run_offline(scans, config)[0])[2]
     assert before.heading_rmse_deg > 5.0, before
+
+
+def test_a_car_seen_end_on_before_a_wall_is_tracked(monkeypatch):
+    """car_moving seed 1098 object 4: a car 6-8 m from the moving sensor, seen end-on with a
+    wall 1.45 m behind it (test_lidar's by-hand scene).  Its side's line went through the
+    wall's first return, so the car and 13 m of wall were one cluster from the fifth scan on,
+    and the track started from it (14 m x 6.5 m, centre 6 m from the car) held the car's
+    returns: the car, seen in 83 scans, was never tracked.  With the face ending at its far
+    corner (clustering.ends_receding) it is tracked within the limits."""
+    scans = scans_from_messages(KINDS['car_moving'](1098).messages())
+    config = configuration('car_moving', TrackerConfig())
+    result = score(scans, run_offline(scans, config)[0])[4]
+    assert result.id_switches == 0 and result.coverage > 0.95, result
+    assert result.position_rmse < 0.3 and result.heading_rmse_deg < 5.0 \
+        and result.velocity_rmse < 0.8, result
+    monkeypatch.setattr(clustering, 'ends_receding',
+                        lambda points, jumps, at, *args: np.zeros(len(at), dtype=bool))
+    before = score(scans, run_offline(scans, config)[0])[4]
+    assert before.coverage == 0.0, before
 
 
 def test_vague_by_hand():

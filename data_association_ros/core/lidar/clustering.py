@@ -3,7 +3,7 @@ order belong to one cluster while they are closer than `gap` [m]; invalid return
 break clusters; clusters with fewer than `min_points` are dropped.  cluster_ends tells which
 cluster ends are the object's real edges and which are cut by something in front.  With a
 `face_tolerance`, returns of one straight face seen at a grazing angle stay one cluster although
-they are farther apart than `gap` (on_face)."""
+they are farther apart than `gap` (on_face), but not past the face's far end (ends_receding)."""
 from __future__ import annotations
 
 from typing import Optional
@@ -17,8 +17,8 @@ apart, from passing for its face going on)."""
 
 
 def cluster_consecutive(points: np.ndarray, gap: float, min_points: int = 1,
-                        face_tolerance: float = 0.0, longest_step: float = np.inf
-                        ) -> np.ndarray:
+                        face_tolerance: float = 0.0, longest_step: float = np.inf,
+                        sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
     """Cluster label per point (K,) in scan order, 0, 1, ...; -1 for invalid or dropped points.
 
     face_tolerance > 0 [m]: two consecutive returns a, b farther apart than `gap` stay in one
@@ -29,7 +29,9 @@ def cluster_consecutive(points: np.ndarray, gap: float, min_points: int = 1,
     A return past a corner with no second one on its line, or one off the line or at another
     spacing (a doorway in a wall), is not joined, nor are two returns more than `longest_step`
     [m] apart (longer than any object of the size class: returns of other things that happen
-    to line up with a face, 3.2 m apart behind an F1Tenth car in race seed 404)."""
+    to line up with a face, 3.2 m apart behind an F1Tenth car in race seed 404), nor a face
+    to returns past its far end that turn off it (ends_receding; the face seen from `sensor`
+    (2,), default the origin)."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     valid = np.all(np.isfinite(points), axis=1)
     labels = np.full(len(points), -1)
@@ -43,7 +45,7 @@ def cluster_consecutive(points: np.ndarray, gap: float, min_points: int = 1,
     jumps |= np.diff(index) > 1
     if face_tolerance > 0:
         _join_faces(valid_points, index, jumps, max(min_points, 2), face_tolerance,
-                    steps <= longest_step)
+                    steps <= longest_step, np.asarray(sensor, dtype=float).reshape(2))
     raw = np.concatenate([[0], np.cumsum(jumps)])
     counts = np.bincount(raw)
     keep = counts[raw] >= min_points
@@ -53,7 +55,7 @@ def cluster_consecutive(points: np.ndarray, gap: float, min_points: int = 1,
 
 
 def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor: int,
-                tolerance: float, short: np.ndarray) -> None:
+                tolerance: float, short: np.ndarray, sensor: np.ndarray) -> None:
     """Clear jumps[t] (between valid returns t and t + 1, where short[t]: not too far apart to
     be one object's) where the returns lie on one face (_continues, either way round) and the
     face goes on from a group of at least `anchor` returns on the near side: a cluster is
@@ -64,6 +66,8 @@ def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor
     ahead = _continues(points, index, tolerance)   # t + 2 continues t -> t + 1
     behind = np.concatenate([[False], ahead[:-1]])  # t + 1 continues t - 1 -> t
     joins = jumps & (ahead | behind) & short
+    candidates = np.flatnonzero(joins)
+    joins[candidates] = ~ends_receding(points, jumps, candidates, tolerance, sensor)
     at = np.flatnonzero(jumps)
     group = bool(anchored[0])
     for t in at:                  # forwards: the group on the left grows
@@ -78,6 +82,44 @@ def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor
         else:
             jumps[t] = False
             group = group or bool(anchored[segment[t]])
+
+
+def ends_receding(points: np.ndarray, jumps: np.ndarray, at: np.ndarray, tolerance: float,
+                  sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
+    """For each step t in `at` (between returns t and t + 1 of `points` (V, 2) in scan order;
+    jumps (V - 1,) bool: the steps that split clusters), whether the face along it recedes
+    from `sensor` (2,) into a cluster that turns off it: the step's farther return starts a
+    run of returns without a jump, and the first of them at least max(step, 2 tolerance /
+    FACE_SLOPE) from it (else the run's last) lies farther than tolerance + FACE_SLOPE x its
+    distance along the step's line from that line (tolerance [m]: on_face's).  A face that
+    recedes from the sensor ends at the object's far corner, and the face past that corner
+    turns away from the sensor (a convex object shows at most the two faces that meet at its
+    nearest corner): what the next beam hits there is something else, even when it happens
+    to lie on the face's line (car_moving seed 1098: a wall behind a car seen end-on, its
+    first return 0.01 m off the line of the car's side; the side joined it, and the wall with
+    it).  The reach keeps the returns' noise from reading as a turn (a straight wall split by
+    a step just over the gap, car_static seed 627).  Returns (len(at),) bool."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    result = np.zeros(len(at), dtype=bool)
+    ranges = np.hypot(*(points - sensor).T)
+    for k, t in enumerate(at):
+        outwards = ranges[t + 1] > ranges[t]
+        far, near, way = (t + 1, t, 1) if outwards else (t, t + 1, -1)
+        face = points[far] - points[near]
+        length = float(np.hypot(*face))
+        reach = max(length, 2 * tolerance / FACE_SLOPE)
+        other = far
+        while 0 <= other + way < len(points) and not jumps[min(other, other + way)]:
+            other += way
+            if np.hypot(*(points[other] - points[far])) >= reach:
+                break
+        if other == far or length == 0:
+            continue
+        offset = points[other] - points[far]
+        along = float(offset @ face) / length
+        across = abs(float(face[0] * offset[1] - face[1] * offset[0])) / length
+        result[k] = across > tolerance + FACE_SLOPE * along
+    return result
 
 
 def _continues(points: np.ndarray, index: np.ndarray, tolerance: float) -> np.ndarray:

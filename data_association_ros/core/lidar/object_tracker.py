@@ -4,7 +4,8 @@
 Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 1. cluster consecutive points (clustering.cluster_consecutive; a face seen at a grazing angle,
    its returns farther apart than cluster_gap, stays one cluster, unless two of them are farther
-   apart than max_size_ratio x the prior length) and flag each cluster end that
+   apart than max_size_ratio x the prior length, and not past its far end: clustering.
+   ends_receding) and flag each cluster end that
    is an object edge or occluded (clustering.cluster_ends; an end next to no return whose face
    would pass the sensor's range limit at the next beam is neither);
 2. predict every track to t, its velocity turning with its yaw rate (measurement.
@@ -315,7 +316,8 @@ class LidarObjectTracker:
             predict(track.filter, dt, config)
             track.matched = np.zeros((0, 2))
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
-                                     FACE_SIGMAS * config.point_sigma, self._largest)
+                                     FACE_SIGMAS * config.point_sigma, self._largest,
+                                     self.sensor)
         labels = split_shared(points, labels, self._claims(before), self._offsets,
                               config.min_pairs)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
