@@ -87,18 +87,21 @@ def _join_faces(points: np.ndarray, index: np.ndarray, jumps: np.ndarray, anchor
 def ends_receding(points: np.ndarray, jumps: np.ndarray, at: np.ndarray, tolerance: float,
                   sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
     """For each step t in `at` (between returns t and t + 1 of `points` (V, 2) in scan order;
-    jumps (V - 1,) bool: the steps that split clusters), whether the face along it recedes
-    from `sensor` (2,) into a cluster that turns off it: the step's farther return starts a
-    run of returns without a jump, and the first of them at least max(step, 2 tolerance /
-    FACE_SLOPE) from it (else the run's last) lies farther than tolerance + FACE_SLOPE x its
-    distance along the step's line from that line (tolerance [m]: on_face's).  A face that
-    recedes from the sensor ends at the object's far corner, and the face past that corner
+    jumps (V - 1,) bool: the steps that split clusters, before any face is joined), whether
+    the returns past the step's farther return from `sensor` (2,) turn off the step's line:
+    that return starts a run of returns without a jump, and the first of them at least
+    max(step, 2 tolerance / FACE_SLOPE) from it (else the run's last) lies farther than
+    tolerance + FACE_SLOPE x its distance along the step's line from that line (tolerance
+    [m]: on_face's).  A face ends where it is farthest from the sensor at the object's far
+    corner, and the face past that corner
     turns away from the sensor (a convex object shows at most the two faces that meet at its
     nearest corner): what the next beam hits there is something else, even when it happens
     to lie on the face's line (car_moving seed 1098: a wall behind a car seen end-on, its
     first return 0.01 m off the line of the car's side; the side joined it, and the wall with
-    it).  The reach keeps the returns' noise from reading as a turn (a straight wall split by
-    a step just over the gap, car_static seed 627).  Returns (len(at),) bool."""
+    it).  At the nearest corner the step's farther return is one of the sparse face's, a run
+    of one: that join stays.  The reach keeps the returns' noise from reading as a turn (a
+    straight wall split by a step just over the gap, car_static seed 627).  Returns
+    (len(at),) bool."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     result = np.zeros(len(at), dtype=bool)
     ranges = np.hypot(*(points - sensor).T)
