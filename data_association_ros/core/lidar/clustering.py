@@ -93,10 +93,9 @@ def ends_receding(points: np.ndarray, jumps: np.ndarray, at: np.ndarray, toleran
     max(step, 2 tolerance / FACE_SLOPE) from it (else the run's last) lies farther than
     tolerance + FACE_SLOPE x its distance along the step's line from that line (tolerance
     [m]: on_face's).  A face ends where it is farthest from the sensor at the object's far
-    corner, and the face past that corner
-    turns away from the sensor (a convex object shows at most the two faces that meet at its
-    nearest corner): what the next beam hits there is something else, even when it happens
-    to lie on the face's line (car_moving seed 1098: a wall behind a car seen end-on, its
+    corner, and the face past that corner turns away from the sensor (a convex object shows
+    at most the two faces that meet at its nearest corner): what the next beam hits there is
+    something else, even when it happens to lie on the face's line (car_moving seed 1098: a wall behind a car seen end-on, its
     first return 0.01 m off the line of the car's side; the side joined it, and the wall with
     it).  At the nearest corner the step's farther return is one of the sparse face's, a run
     of one: that join stays.  The reach keeps the returns' noise from reading as a turn (a
@@ -110,17 +109,17 @@ def ends_receding(points: np.ndarray, jumps: np.ndarray, at: np.ndarray, toleran
         far, near, way = (t + 1, t, 1) if outwards else (t, t + 1, -1)
         face = points[far] - points[near]
         length = float(np.hypot(*face))
+        if length == 0:
+            continue
         reach = max(length, 2 * tolerance / FACE_SLOPE)
         other = far
         while 0 <= other + way < len(points) and not jumps[min(other, other + way)]:
             other += way
             if np.hypot(*(points[other] - points[far])) >= reach:
                 break
-        if other == far or length == 0:
+        if other == far:
             continue
-        offset = points[other] - points[far]
-        along = float(offset @ face) / length
-        across = abs(float(face[0] * offset[1] - face[1] * offset[0])) / length
+        along, across = along_across(points[other] - points[far], face / length)
         result[k] = across > tolerance + FACE_SLOPE * along
     return result
 
@@ -189,9 +188,15 @@ def on_face(end: np.ndarray, outward: np.ndarray, spacing: float | np.ndarray, p
     `spacing` (the face's last return spacing [m]) beyond the end along it (the next return on
     the same straight face; a corner or a gap leaves it off the line or too far).  Arrays of
     them (..., 2) and spacings (...) broadcast: a bool array; NaN anywhere: False."""
-    offset = np.asarray(point, dtype=float) - end
     with np.errstate(invalid='ignore'):
-        along = np.sum(offset * outward, axis=-1)
-        across = np.abs(offset[..., 0] * outward[..., 1] - offset[..., 1] * outward[..., 0])
+        along, across = along_across(np.asarray(point, dtype=float) - end, outward)
         return (across <= np.minimum(tolerance, FACE_SLOPE * along)) & \
             (FACE_STEPS[0] * spacing <= along) & (along <= FACE_STEPS[1] * spacing)
+
+
+def along_across(offset: np.ndarray, direction: np.ndarray) -> tuple:
+    """(offset . direction, |offset x direction|) [m]: how far `offset` (..., 2) [m] goes along
+    the unit vector `direction` (..., 2) and how far it lies off its line; arrays broadcast."""
+    along = np.sum(offset * direction, axis=-1)
+    across = np.abs(offset[..., 0] * direction[..., 1] - offset[..., 1] * direction[..., 0])
+    return along, across

@@ -422,7 +422,7 @@ class LidarObjectTracker:
             if np.hypot(*(centre - predicted)) < np.hypot(*(new.filter.x[:2] - predicted)):
                 new.filter.x[:3] = [centre[0], centre[1], yaw]
                 new.length, new.width = length, width
-                new.anchor = (cluster.mean(axis=0) - centre) @ rotation(yaw)
+                new.anchor = anchor_in_box(cluster, centre, yaw)
                 new.last = new.filter.x[:3].copy()
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
         new.filter.x[:2] -= late * new.filter.x[3:5]
@@ -802,7 +802,7 @@ class LidarObjectTracker:
                     low[k] = min(max(low[k], limit), seen_low[k])
         track.length, track.width = high - low
         x[:2] = x[:2] + r @ ((low + high) / 2)
-        track.anchor = (scan.mean(axis=0) - x[:2]) @ r
+        track.anchor = anchor_in_box(scan, x[:2], x[2])
 
     def _fit(self, cluster: np.ndarray, occluded: np.ndarray
              ) -> Optional[tuple[np.ndarray, float, float, float, np.ndarray]]:
@@ -818,7 +818,7 @@ class LidarObjectTracker:
                                                    sensor=self.sensor, occluded=occluded)
         if max(length, width) > largest:
             return None  # a wall or a building, not an object of this size class
-        return centre, yaw, length, width, (cluster.mean(axis=0) - centre) @ rotation(yaw)
+        return centre, yaw, length, width, anchor_in_box(cluster, centre, yaw)
 
     def _start(self, cluster: np.ndarray, occluded: np.ndarray, time: float, late: float = 0.0
                ) -> Optional[ObjectTrack]:
@@ -870,6 +870,12 @@ def across_spread(points: np.ndarray, yaw: float) -> float:
     """The points' (K, 2) extent [m] across the heading yaw: ptp of points . (-sin yaw, cos yaw),
     the left normal (rotation(yaw)'s second column)."""
     return float(np.ptp(points @ rotation(yaw)[:, 1]))
+
+
+def anchor_in_box(points: np.ndarray, centre: np.ndarray, yaw: float) -> np.ndarray:
+    """The centroid of `points` (K, 2) in the frame of a rectangle at `centre` (2,) heading
+    `yaw` [rad]: R(yaw)^T (mean - centre) (2,) [m], a track's anchor."""
+    return (points.mean(axis=0) - centre) @ rotation(yaw)
 
 
 def refit_along(yaw: float, old_yaw: float, cluster: np.ndarray, prior_width: float) -> bool:
