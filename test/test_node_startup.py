@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from datetime import timedelta
 from pathlib import Path
 
 import pytest
@@ -117,3 +118,47 @@ def test_ctrl_c_twice_ends_the_node_cleanly(tmp_path, gap_s):
             process.kill()
             process.wait()
     assert 'Traceback' not in log.read_text() and 'KeyboardInterrupt' not in log.read_text()
+
+
+STUCK_STOP = '''
+import ctypes
+from data_association_ros.nodes import association_node
+
+def stuck(node):
+    """A native call that keeps the GIL and never returns, as Fast DDS's deadlocked participant
+    deletion inside destroy_node does."""
+    ctypes.PyDLL(None).sleep(600)
+
+association_node.AssociationNode.destroy_node = stuck
+association_node.main()
+'''
+
+
+def test_a_stop_stuck_in_a_native_call_ends_the_process_after_teardown_s(tmp_path):
+    """The teardown watchdog (parameterized_node._stop): a stop that cannot finish ends the
+    process after TEARDOWN_S with every thread's stack on stderr and exit code 1 (without it,
+    the node ignored SIGINT and SIGTERM for good)."""
+    from data_association_ros.nodes.parameterized_node import TEARDOWN_S
+    log = tmp_path / 'node.log'
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST',
+               DATA_ASSOCIATION_ROS_NO_JIT='1')
+    with open(log, 'wb') as out:
+        process = subprocess.Popen([sys.executable, '-c', STUCK_STOP], stdout=out,
+                                   stderr=subprocess.STDOUT, env=env)
+    try:
+        deadline = time.monotonic() + 30
+        while 'association_node ready' not in log.read_text() and time.monotonic() < deadline:
+            assert process.poll() is None, log.read_text()
+            time.sleep(0.1)
+        process.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        assert process.wait(timeout=TEARDOWN_S + 20) == 1, log.read_text()
+        took = time.monotonic() - sent
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    text = log.read_text()
+    assert took >= TEARDOWN_S - 0.1, (took, text)
+    assert f'Timeout ({timedelta(seconds=TEARDOWN_S)})!' in text, text
+    assert 'in stuck' in text and 'in _stop' in text, text

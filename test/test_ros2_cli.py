@@ -19,10 +19,13 @@ import subprocess
 import sys
 import time
 import warnings
+from datetime import timedelta
 from pathlib import Path
 
 import pytest
 import yaml
+
+from data_association_ros.nodes.parameterized_node import TEARDOWN_S
 
 
 REPO = Path(__file__).resolve().parents[1]
@@ -173,17 +176,19 @@ def stop(process: subprocess.Popen) -> None:
 
 def stacks(process: subprocess.Popen, limit: int = 12000) -> str:
     """Where each process of `process`'s group is stuck (gdb: the Python stack of its main
-    thread, every thread's native stack), for the report of a hang; '' without gdb."""
+    thread, its native stack, then every thread's innermost frames), for the report of a hang;
+    '' without gdb.  The group's leader (the tool that started the others, e.g. ros2 launch
+    waiting for its nodes) comes last: a CI log shows the head and tail of a long failure."""
     if shutil.which('gdb') is None:
         return ''
     listed = subprocess.run(['pgrep', '-g', str(process.pid)], capture_output=True, text=True)
     report = []
-    for pid in listed.stdout.split():
+    for pid in sorted(listed.stdout.split(), key=lambda pid: pid == str(process.pid)):
         try:
             command = Path(f'/proc/{pid}/cmdline').read_bytes().replace(b'\0', b' ').decode()
             traced = subprocess.run(
                 ['gdb', '-p', pid, '-batch', '-iex', 'set auto-load safe-path /', '-ex',
-                 'thread 1', '-ex', 'py-bt', '-ex', 'thread apply all bt 10'],
+                 'thread 1', '-ex', 'py-bt', '-ex', 'bt 30', '-ex', 'thread apply all bt 8'],
                 capture_output=True, text=True, timeout=60).stdout
         except (OSError, subprocess.TimeoutExpired) as error:
             traced = repr(error)
@@ -192,11 +197,17 @@ def stacks(process: subprocess.Popen, limit: int = 12000) -> str:
     return '\n'.join(report)
 
 
+TEARDOWN_DUMP = f'Timeout ({timedelta(seconds=TEARDOWN_S)})!'
+"""What a node's teardown watchdog prints before the stacks (faulthandler)."""
+
+
 def interrupt(process: subprocess.Popen, log: Path) -> str:
     """SIGINT to `process` and its children (Ctrl-C in its terminal); its log once it has
-    ended with exit code 0.  When ros2 launch reports a node that 'failed to terminate' after
-    SIGINT (it then sends SIGTERM, and SIGKILL 10 s later), the stacks of the group's processes
-    are taken at once and appended to the log returned, so a node that hangs says where."""
+    ended with exit code 0, or with a warning once a node's teardown watchdog has ended a node
+    stuck in its stop (exit code 1 under ros2 run).  When ros2 launch reports a node that
+    'failed to terminate' after SIGINT (it then sends SIGTERM, and SIGKILL 10 s later), the
+    stacks of the group's processes are taken at once and appended to the log returned, so a
+    node that hangs says where."""
     os.killpg(process.pid, signal.SIGINT)
     deadline = time.monotonic() + DOWN_S
     where = ''
@@ -210,8 +221,15 @@ def interrupt(process: subprocess.Popen, log: Path) -> str:
         raise AssertionError(f'still running {DOWN_S} s after SIGINT:\n{log.read_text()}'
                              f'{where}')
     text = log.read_text(errors='replace') + where
-    assert process.returncode == 0, text
     assert 'Traceback' not in text, text
+    if TEARDOWN_DUMP in text:
+        # a node's DDS teardown deadlocked (a Fast DDS 2.14 race, parameterized_node._stop) and
+        # its watchdog ended it with exit code 1 (ros2 run passes it on; launch returns 0)
+        assert 'in _stop' in text, text
+        assert process.returncode in (0, 1), text
+        warnings.warn(f'a node stop outlived TEARDOWN_S; its watchdog ended it:\n{text}')
+    else:
+        assert process.returncode == 0, text
     return text
 
 
