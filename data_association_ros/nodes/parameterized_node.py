@@ -225,9 +225,9 @@ def spin(node_class: Callable[[], Node], args: Optional[list[str]] = None,
 
 
 TEARDOWN_S = 3.0
-"""Longest the stop may take (destroy_node, rclpy.shutdown, the interpreter's exit; normally
-0.05-0.3 s) before the process ends itself (_stop); under ros2 launch, within the 5 s before
-launch's SIGTERM."""
+"""Longest the stop may take from its start to the process's end (destroy_node, rclpy.shutdown
+and the interpreter's exit; normally 0.1-0.3 s) before the process ends itself (_stop); under
+ros2 launch, within the 5 s before launch's SIGTERM."""
 
 
 def _stop(node: Node) -> None:
@@ -235,15 +235,18 @@ def _stop(node: Node) -> None:
     late second Ctrl-C ends the process by the signal, exit code -2), destroy the node once,
     shut rclpy down; a stop interrupted by a KeyboardInterrupt is begun again by the caller.
 
-    A stop not over in TEARDOWN_S prints every thread's Python stack on stderr ('Timeout
-    (0:00:03)!', faulthandler) and exits with code 1: faulthandler's watchdog is a thread of its
-    own that runs while the stuck call holds the GIL.  Seen about once in 300 stops of two
-    nodes at once (as under ros2 launch): Fast DDS 2.14 deadlocks deleting the participant
-    (DomainParticipant::set_listener waits for a discovery callback about the other node's
-    leaving, which waits for the lock set_listener holds); the node then ignored SIGINT and
-    SIGTERM until SIGKILL, and under `ros2 run` hung for good."""
+    A process not ended TEARDOWN_S after its stop began prints every thread's Python stack on
+    stderr ('Timeout (0:00:03)!', faulthandler) and exits with code 1: faulthandler's watchdog
+    is a thread of its own that runs while the stuck call holds the GIL; armed once (a stop
+    begun again does not restart it).  Seen in 4 of 1,277 stops of two nodes at once (as under
+    ros2 launch; benchmarks/stop_race.py): Fast DDS 2.14 deadlocks deleting the participant
+    in destroy_node (DomainParticipant::set_listener waits for a discovery callback about the
+    other node's leaving, which waits for the lock set_listener holds); the node then ignored
+    SIGINT and SIGTERM until SIGKILL, and under `ros2 run` hung for good."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    faulthandler.dump_traceback_later(TEARDOWN_S, exit=True)
+    if not getattr(node, '_stopping', False):
+        node._stopping = True
+        faulthandler.dump_traceback_later(TEARDOWN_S, exit=True)
     if not getattr(node, '_stopped', False):
         node.destroy_node()
         node._stopped = True
