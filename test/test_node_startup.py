@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from datetime import timedelta
 from pathlib import Path
 
@@ -96,27 +97,34 @@ def test_an_invalid_start_parameter_stops_the_node_with_one_line(node, name, val
     assert lines[0] == line
 
 
-@pytest.mark.parametrize('gap_s', [0.0, 0.02, 0.1, 0.5])
-def test_ctrl_c_twice_ends_the_node_cleanly(tmp_path, gap_s):
-    """Ctrl-C under `ros2 launch` reaches a node twice (from the terminal and from launch)."""
-    log = tmp_path / 'node.log'
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+@contextmanager
+def ready_association_node(command: list[str], log: Path, **env: str):
+    """The association_node process `command` (output to `log`, `env` added to this one's, DDS
+    on loopback) once it has said "ready"; killed on leaving if still running."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', **env)
     with open(log, 'wb') as out:
-        process = subprocess.Popen([str(BIN / 'association_node')], stdout=out,
-                                   stderr=subprocess.STDOUT, env=env)
+        process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, env=env)
     try:
         deadline = time.monotonic() + 30
         while 'association_node ready' not in log.read_text() and time.monotonic() < deadline:
             assert process.poll() is None, log.read_text()
             time.sleep(0.1)
-        process.send_signal(signal.SIGINT)
-        time.sleep(gap_s)
-        process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=20) == 0, log.read_text()
+        yield process
     finally:
         if process.poll() is None:
             process.kill()
             process.wait()
+
+
+@pytest.mark.parametrize('gap_s', [0.0, 0.02, 0.1, 0.5])
+def test_ctrl_c_twice_ends_the_node_cleanly(tmp_path, gap_s):
+    """Ctrl-C under `ros2 launch` reaches a node twice (from the terminal and from launch)."""
+    log = tmp_path / 'node.log'
+    with ready_association_node([str(BIN / 'association_node')], log) as process:
+        process.send_signal(signal.SIGINT)
+        time.sleep(gap_s)
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=20) == 0, log.read_text()
     assert 'Traceback' not in log.read_text() and 'KeyboardInterrupt' not in log.read_text()
 
 
@@ -140,24 +148,12 @@ def test_a_stop_stuck_in_a_native_call_ends_the_process_after_teardown_s(tmp_pat
     the node ignored SIGINT and SIGTERM for good)."""
     from data_association_ros.nodes.parameterized_node import TEARDOWN_S
     log = tmp_path / 'node.log'
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST',
-               DATA_ASSOCIATION_ROS_NO_JIT='1')
-    with open(log, 'wb') as out:
-        process = subprocess.Popen([sys.executable, '-c', STUCK_STOP], stdout=out,
-                                   stderr=subprocess.STDOUT, env=env)
-    try:
-        deadline = time.monotonic() + 30
-        while 'association_node ready' not in log.read_text() and time.monotonic() < deadline:
-            assert process.poll() is None, log.read_text()
-            time.sleep(0.1)
+    with ready_association_node([sys.executable, '-c', STUCK_STOP], log,
+                                DATA_ASSOCIATION_ROS_NO_JIT='1') as process:
         process.send_signal(signal.SIGINT)
         sent = time.monotonic()
         assert process.wait(timeout=TEARDOWN_S + 20) == 1, log.read_text()
         took = time.monotonic() - sent
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
     text = log.read_text()
     assert took >= TEARDOWN_S - 0.1, (took, text)
     assert f'Timeout ({timedelta(seconds=TEARDOWN_S)})!' in text, text
