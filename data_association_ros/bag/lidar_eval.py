@@ -396,6 +396,7 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    from .lidar_random_scene import KINDS
     parser = argparse.ArgumentParser(prog='da_lidar_eval',
                                      description=' '.join(__doc__.split('\n\n')[0].split()))
     parser.add_argument('bag', nargs='?', type=Path, default=BAG,
@@ -410,9 +411,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help='name=value for every row (e.g. -p max_age=0.5)')
     parser.add_argument('--scenes', default='',
                         help='instead of a bag: generated scenes of these kinds (comma-separated, '
-                        'of car_static, car_moving, f1tenth_static, f1tenth_moving, race, '
-                        'crossing), default parameters with the kind\'s size class; per kind the '
-                        'median and worst object')
+                        f'of {", ".join(KINDS)}), default parameters with the kind\'s size '
+                        'class; per kind the median and worst object')
     parser.add_argument('--seeds', default='100-129',
                         help='seeds of the generated scenes: A-B or a,b,c (default 100-129; the '
                         'tracker was tuned on 0-29)')

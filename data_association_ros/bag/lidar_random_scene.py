@@ -11,7 +11,9 @@ at that time (ray casting, core.lidar.raycast), Gaussian range noise.
   uniform over all directions, speeds 1.5-10 m/s (car class), a straight piece then a turn
   (|yaw rate| up to 0.4 rad/s, up to 1.2 rad/s for f1tenth), objects that start outside the
   field of view or range and enter, others that leave; a corridor of two walls on half of the
-  seeds.  Objects never overlap each other, the sensor or a wall (rejection sampling on 0.05 s
+  seeds.  `pedestrian`: 0.25-0.35 m (front to back) x 0.45-0.60 m (shoulders), the car
+  class's 30 m LiDAR, distances / 2 (2.5-14 m), walking at 0.27-1.8 m/s, turning up to 1 rad/s,
+  a corridor 8-14 m wide, the moving sensor at 0.5-1.4 m/s (a robot among people).  Objects never overlap each other, the sensor or a wall (rejection sampling on 0.05 s
   steps with their circumscribed circles), so occlusions come from objects passing in front of
   others.  The moving sensor drives straight at 3-8 m/s (0.6-1.6 m/s for f1tenth) along the
   corridor.
@@ -49,7 +51,7 @@ OBJECT_DTYPE = np.dtype([('id', '<i4'), ('x', '<f4'), ('y', '<f4'), ('yaw', '<f4
                          ('width', '<f4'), ('visible', '<i4')])
 START_NS = 1_000_000_000
 ODOMETRY_PER_SCAN = 2
-SIZES = ('car', 'f1tenth')
+SIZES = ('car', 'f1tenth', 'pedestrian')
 
 
 @dataclass(frozen=True)
@@ -202,19 +204,27 @@ def _clear(motion: Motion, radius: float, others: list, walls_y: Optional[float]
     return bool(np.all(np.hypot(*(here - origin).T) > radius + 0.25 * radius + 0.5))
 
 
+SIZE_SETTINGS = {
+    'car': (1.0, CAR_LIDAR, 1.0, 0.4, 1.0, (3.8, 5.2), (1.6, 2.0)),
+    'f1tenth': (0.2, F1TENTH_LIDAR, 0.5, 1.2, 2.5, (0.50, 0.60), (0.27, 0.33)),
+    'pedestrian': (0.5, CAR_LIDAR, 0.18, 1.0, 1.0, (0.25, 0.35), (0.45, 0.60)),
+}
+"""Per size class: (distance scale, LiDAR, speed scale, largest |yaw rate| [rad/s], divisor
+of the moving sensor's scaled speed, length range, width range [m]) of random_scene (module
+docstring: the car class's numbers scaled)."""
+
+
 def random_scene(seed: int, size: str = 'car', moving: bool = False,
                  duration: float = 4.0) -> Scene:
     """A random scene (module docstring) from `seed`; the same seed gives the same scene."""
     if size not in SIZES:
         raise ValueError(f'size: {size!r} is not one of {", ".join(SIZES)}')
     rng = np.random.default_rng([seed, SIZES.index(size), int(moving)])
-    scale, lidar = (1.0, CAR_LIDAR) if size == 'car' else (0.2, F1TENTH_LIDAR)
-    speed_scale = 1.0 if size == 'car' else 0.5
-    max_turn = 0.4 if size == 'car' else 1.2
+    scale, lidar, speed_scale, max_turn, sensor_divisor, lengths, widths = SIZE_SETTINGS[size]
     sensor = None
     if moving:
         sensor = Pieces((0.0, 0.0, 0.0), ((duration + 1.0, rng.uniform(3.0, 8.0) * speed_scale
-                                           / (1.0 if size == 'car' else 2.5), 0.0),))
+                                           / sensor_divisor, 0.0),))
     walls_y = rng.uniform(8.0, 14.0) * scale if rng.random() < 0.5 else None
     walls = np.zeros((0, 2, 2))
     if walls_y is not None:
@@ -226,10 +236,7 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
     objects, placed = [], []
     for number in range(1, count + 1):
         for _ in range(200):
-            if size == 'car':
-                length, width = rng.uniform(3.8, 5.2), rng.uniform(1.6, 2.0)
-            else:
-                length, width = rng.uniform(0.50, 0.60), rng.uniform(0.27, 0.33)
+            length, width = rng.uniform(*lengths), rng.uniform(*widths)
             distance = rng.uniform(5.0, 28.0) * scale
             bearing = rng.uniform(-np.pi, np.pi)
             heading = rng.uniform(-np.pi, np.pi)
@@ -298,6 +305,8 @@ KINDS = {
     'car_moving': lambda seed: random_scene(seed, 'car', True),
     'f1tenth_static': lambda seed: random_scene(seed, 'f1tenth', False),
     'f1tenth_moving': lambda seed: random_scene(seed, 'f1tenth', True),
+    'pedestrian_static': lambda seed: random_scene(seed, 'pedestrian', False),
+    'pedestrian_moving': lambda seed: random_scene(seed, 'pedestrian', True),
     'race': race_scene,
     'crossing': crossing_scene,
 }

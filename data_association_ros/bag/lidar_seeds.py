@@ -23,10 +23,12 @@ MIN_SCORED_SCANS = 10
 TUNING_SEEDS = range(0, 30)
 BENCHMARK_SEEDS = range(100, 130)
 SIZE_OF_KIND = {'car_static': 'car', 'car_moving': 'car', 'f1tenth_static': 'f1tenth',
-                'f1tenth_moving': 'f1tenth', 'race': 'f1tenth', 'crossing': 'car'}
-POSITION_LIMIT = {'car': 0.3, 'f1tenth': 0.05}
-"""Issue 21's position RMSE limit per size class [m]; heading 5 deg, velocity 0.8 m/s, id
-switches on at most 5 % of the objects."""
+                'f1tenth_moving': 'f1tenth', 'race': 'f1tenth', 'crossing': 'car',
+                'pedestrian_static': 'pedestrian', 'pedestrian_moving': 'pedestrian'}
+POSITION_LIMIT = {'car': 0.3, 'f1tenth': 0.05, 'pedestrian': 0.3}
+"""Issue 21's position RMSE limit per size class [m] (pedestrians, for which the issue sets
+none: the full-size one); heading 5 deg, velocity 0.8 m/s, id switches on at most 5 % of the
+objects."""
 HEADING_LIMIT_DEG, VELOCITY_LIMIT, SWITCH_SHARE = 5.0, 0.8, 0.05
 
 

@@ -19,6 +19,7 @@ PRESETS = {
     'f1tenth': {'size_class': 'f1tenth', 'fine': 'nearest', 'nearest_cutoff': 0.1,
                 'boundary_spacing': 0.05, 'max_size_ratio': 2.0,
                 'calm_yaw_accel_sigma': 0.5},
+    'pedestrian': {'size_class': 'pedestrian'},
 }
 """Parameter sets per setting (config/lidar_<name>.yaml): F1Tenth racing pairs points with the
 nearest boundary point within 0.1 m (JCBB takes most of a 25 ms scan period on this 2-core
@@ -26,7 +27,8 @@ machine; nearest is about 2-3x faster here) on a boundary sampled every 5 cm (a 
 takes anything longer than 1.1 m for the track's walls; an IMM mixes a calm motion model (white
 angular acceleration 0.5 rad/s^2/sqrt(Hz)) with the agile default (4): a small car far away shows
 a few returns of one face, whose heading scatters by 10-20 deg from scan to scan, and the agile
-model follows that scatter (docs/lidar.md, "Two motion models")."""
+model follows that scatter (docs/lidar.md, "Two motion models"). Pedestrians: the size
+class only (docs/lidar.md, "Pedestrians": nothing tuned for them yet)."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
 
 
