@@ -365,6 +365,12 @@ def parse_values(pairs: Iterable[str]) -> dict:
     return values
 
 
+SCENE_KINDS = ('car_static', 'car_moving', 'f1tenth_static', 'f1tenth_moving',
+               'pedestrian_static', 'pedestrian_moving', 'race', 'crossing')
+"""The keys of lidar_random_scene.KINDS, for --help without importing the scene generator (and
+its message packages)."""
+
+
 def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str]) -> int:
     """--scenes: the summary table over the seeds of each kind (lidar_seeds)."""
     from .lidar_random_scene import KINDS
@@ -396,7 +402,6 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    from .lidar_random_scene import KINDS
     parser = argparse.ArgumentParser(prog='da_lidar_eval',
                                      description=' '.join(__doc__.split('\n\n')[0].split()))
     parser.add_argument('bag', nargs='?', type=Path, default=BAG,
@@ -411,7 +416,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help='name=value for every row (e.g. -p max_age=0.5)')
     parser.add_argument('--scenes', default='',
                         help='instead of a bag: generated scenes of these kinds (comma-separated, '
-                        f'of {", ".join(KINDS)}), default parameters with the kind\'s size '
+                        f'of {", ".join(SCENE_KINDS)}), default parameters with the kind\'s size '
                         'class; per kind the median and worst object')
     parser.add_argument('--seeds', default='100-129',
                         help='seeds of the generated scenes: A-B or a,b,c (default 100-129; the '

@@ -11,12 +11,13 @@ at that time (ray casting, core.lidar.raycast), Gaussian range noise.
   uniform over all directions, speeds 1.5-10 m/s (car class), a straight piece then a turn
   (|yaw rate| up to 0.4 rad/s, up to 1.2 rad/s for f1tenth), objects that start outside the
   field of view or range and enter, others that leave; a corridor of two walls on half of the
-  seeds.  `pedestrian`: 0.25-0.35 m (front to back) x 0.45-0.60 m (shoulders), the car
-  class's 30 m LiDAR, distances / 2 (2.5-14 m), walking at 0.27-1.8 m/s, turning up to 1 rad/s,
-  a corridor 8-14 m wide, the moving sensor at 0.5-1.4 m/s (a robot among people).  Objects never overlap each other, the sensor or a wall (rejection sampling on 0.05 s
+  seeds.  Objects never overlap each other, the sensor or a wall (rejection sampling on 0.05 s
   steps with their circumscribed circles), so occlusions come from objects passing in front of
   others.  The moving sensor drives straight at 3-8 m/s (0.6-1.6 m/s for f1tenth) along the
-  corridor.
+  corridor.  `pedestrian`: walkers 0.25-0.35 m (front to back) x 0.45-0.60 m (shoulders), the
+  car class's 30 m LiDAR, distances / 2 (2.5-14 m), speeds x 0.18 (0.27-1.8 m/s), turning up
+  to 1 rad/s, a corridor 8-14 m wide, the moving sensor at 0.54-1.44 m/s (a robot among
+  people).
 * `race_scene(seed)`: F1Tenth racing (seed 003's setting): a stadium track (14 m straights, 4 m
   radius, walls 1 m either side of the centre line), the ego car at 4-5.5 m/s in the inner lane
   (+0.4 m), opponent 1 ahead of it in the same lane, a bit faster, opponent 2 from behind the ego
@@ -209,9 +210,10 @@ SIZE_SETTINGS = {
     'f1tenth': (0.2, F1TENTH_LIDAR, 0.5, 1.2, 2.5, (0.50, 0.60), (0.27, 0.33)),
     'pedestrian': (0.5, CAR_LIDAR, 0.18, 1.0, 1.0, (0.25, 0.35), (0.45, 0.60)),
 }
-"""Per size class: (distance scale, LiDAR, speed scale, largest |yaw rate| [rad/s], divisor
-of the moving sensor's scaled speed, length range, width range [m]) of random_scene (module
-docstring: the car class's numbers scaled)."""
+"""Per size class, random_scene's (module docstring) numbers: (scale of the car class's
+distances and corridor width, LiDAR, scale of the car class's object and sensor speeds,
+largest |yaw rate| [rad/s], divisor of the moving sensor's scaled speed, length range, width
+range [m])."""
 
 
 def random_scene(seed: int, size: str = 'car', moving: bool = False,
@@ -228,7 +230,8 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
     walls_y = rng.uniform(8.0, 14.0) * scale if rng.random() < 0.5 else None
     walls = np.zeros((0, 2, 2))
     if walls_y is not None:
-        reach = 1.0 if size == 'car' else 2 * scale  # along x: -60 to 120 m, -24 to 48 m
+        # along x: -60 to 120 m (car, pedestrian: 2 x 0.5), -24 to 48 m (f1tenth)
+        reach = 1.0 if size == 'car' else 2 * scale
         walls = np.array([[[-60.0 * reach, -walls_y], [120.0 * reach, -walls_y]],
                           [[-60.0 * reach, walls_y], [120.0 * reach, walls_y]]])
     times = np.arange(0.0, duration + 1e-9, 0.05)
