@@ -226,17 +226,21 @@ def test_size_class_priors_and_extent_converging_to_what_is_seen():
     assert abs(tracks[0].length - 0.58) < 0.02 and abs(tracks[0].width - 0.29) < 0.02
 
 
-def test_generated_scenes_are_reproducible_and_keep_objects_apart():
-    a, b = random_scene(3, 'car', moving=True), random_scene(3, 'car', moving=True)
-    assert [o.length for o in a.objects] == [o.length for o in b.objects]
-    assert 1 <= len(a.objects) <= 5 and a.frame == 'odom' and random_scene(3).frame == 'laser'
-    times = np.arange(0.0, a.duration, 0.05)
-    for i, first in enumerate(a.objects):
-        for second in a.objects[i + 1:]:
+def assert_kept_apart(objects, times: np.ndarray) -> None:
+    """No two objects' circumscribed circles overlap at `times` [s]."""
+    for i, first in enumerate(objects):
+        for second in objects[i + 1:]:
             gap = np.hypot(*(first.motion.poses(times)[:, :2]
                              - second.motion.poses(times)[:, :2]).T)
             assert gap.min() > (np.hypot(first.length, first.width)
                                 + np.hypot(second.length, second.width)) / 2
+
+
+def test_generated_scenes_are_reproducible_and_keep_objects_apart():
+    a, b = random_scene(3, 'car', moving=True), random_scene(3, 'car', moving=True)
+    assert [o.length for o in a.objects] == [o.length for o in b.objects]
+    assert 1 <= len(a.objects) <= 5 and a.frame == 'odom' and random_scene(3).frame == 'laser'
+    assert_kept_apart(a.objects, np.arange(0.0, a.duration, 0.05))
     track = Stadium(14.0, 4.0)
     s = np.linspace(0, track.perimeter, 200, endpoint=False)
     steps = np.hypot(*np.diff(track.point(s, np.zeros_like(s)), axis=0).T)
@@ -274,12 +278,7 @@ def test_pedestrian_scenes_have_people_sized_walkers(moving):
             assert 2.5 <= np.hypot(*poses[0, :2]) <= 14.0
             radius = np.hypot(item.length, item.width) / 2
             assert np.hypot(*(poses[:, :2] - origin).T).min() > 1.25 * radius + 0.5
-        for i, first in enumerate(scene.objects):
-            for second in scene.objects[i + 1:]:
-                gap = np.hypot(*(first.motion.poses(times)[:, :2]
-                                 - second.motion.poses(times)[:, :2]).T)
-                assert gap.min() > (np.hypot(first.length, first.width)
-                                    + np.hypot(second.length, second.width)) / 2
+        assert_kept_apart(scene.objects, times)
     assert min(speeds) < 0.5 and max(speeds) > 1.5 and max(turns) > 0.8
 
 

@@ -35,7 +35,7 @@ width, visible = beams that hit the object in that scan; frame `odom` with a mov
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterator, Optional
+from typing import Iterator, NamedTuple, Optional
 
 import numpy as np
 from sensor_msgs.msg import LaserScan
@@ -205,15 +205,32 @@ def _clear(motion: Motion, radius: float, others: list, walls_y: Optional[float]
     return bool(np.all(np.hypot(*(here - origin).T) > radius + 0.25 * radius + 0.5))
 
 
+class SizeSettings(NamedTuple):
+    """random_scene's (module docstring) numbers for one size class."""
+
+    scale: float
+    """of the car class's distances and corridor width"""
+    lidar: Lidar
+    speed_scale: float
+    """of the car class's object and sensor speeds"""
+    max_turn: float
+    """largest |yaw rate| [rad/s]"""
+    sensor_divisor: float
+    """divides the moving sensor's scaled speed"""
+    wall_reach: float
+    """of the car class's walls along x (-60 to 120 m)"""
+    lengths: tuple
+    """length range [m]"""
+    widths: tuple
+    """width range [m]"""
+
+
 SIZE_SETTINGS = {
-    'car': (1.0, CAR_LIDAR, 1.0, 0.4, 1.0, (3.8, 5.2), (1.6, 2.0)),
-    'f1tenth': (0.2, F1TENTH_LIDAR, 0.5, 1.2, 2.5, (0.50, 0.60), (0.27, 0.33)),
-    'pedestrian': (0.5, CAR_LIDAR, 0.18, 1.0, 1.0, (0.25, 0.35), (0.45, 0.60)),
+    'car': SizeSettings(1.0, CAR_LIDAR, 1.0, 0.4, 1.0, 1.0, (3.8, 5.2), (1.6, 2.0)),
+    'f1tenth': SizeSettings(0.2, F1TENTH_LIDAR, 0.5, 1.2, 2.5, 0.4, (0.50, 0.60), (0.27, 0.33)),
+    'pedestrian': SizeSettings(0.5, CAR_LIDAR, 0.18, 1.0, 1.0, 1.0, (0.25, 0.35), (0.45, 0.60)),
 }
-"""Per size class, random_scene's (module docstring) numbers: (scale of the car class's
-distances and corridor width, LiDAR, scale of the car class's object and sensor speeds,
-largest |yaw rate| [rad/s], divisor of the moving sensor's scaled speed, length range, width
-range [m])."""
+"""Per size class, random_scene's numbers."""
 
 
 def random_scene(seed: int, size: str = 'car', moving: bool = False,
@@ -222,16 +239,17 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
     if size not in SIZES:
         raise ValueError(f'size: {size!r} is not one of {", ".join(SIZES)}')
     rng = np.random.default_rng([seed, SIZES.index(size), int(moving)])
-    scale, lidar, speed_scale, max_turn, sensor_divisor, lengths, widths = SIZE_SETTINGS[size]
+    settings = SIZE_SETTINGS[size]
+    scale, speed_scale, lengths, widths = (settings.scale, settings.speed_scale,
+                                           settings.lengths, settings.widths)
     sensor = None
     if moving:
         sensor = Pieces((0.0, 0.0, 0.0), ((duration + 1.0, rng.uniform(3.0, 8.0) * speed_scale
-                                           / sensor_divisor, 0.0),))
+                                           / settings.sensor_divisor, 0.0),))
     walls_y = rng.uniform(8.0, 14.0) * scale if rng.random() < 0.5 else None
     walls = np.zeros((0, 2, 2))
     if walls_y is not None:
-        # along x: -60 to 120 m (car, pedestrian: 2 x 0.5), -24 to 48 m (f1tenth)
-        reach = 1.0 if size == 'car' else 2 * scale
+        reach = settings.wall_reach
         walls = np.array([[[-60.0 * reach, -walls_y], [120.0 * reach, -walls_y]],
                           [[-60.0 * reach, walls_y], [120.0 * reach, walls_y]]])
     times = np.arange(0.0, duration + 1e-9, 0.05)
@@ -245,7 +263,7 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
             heading = rng.uniform(-np.pi, np.pi)
             speed = rng.uniform(1.5, 10.0) * speed_scale
             straight = rng.uniform(0.0, duration)
-            turn = rng.uniform(-max_turn, max_turn) * (rng.random() < 0.6)
+            turn = rng.uniform(-settings.max_turn, settings.max_turn) * (rng.random() < 0.6)
             start = (distance * np.cos(bearing), distance * np.sin(bearing), heading)
             motion = Pieces(start, ((straight, speed, 0.0), (duration + 1.0, speed, turn)))
             radius = np.hypot(length, width) / 2
@@ -253,7 +271,7 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
                 objects.append(SceneObject(number, float(length), float(width), motion))
                 placed.append((motion, radius))
                 break
-    return Scene(objects, sensor, walls, lidar, duration, seed, size,
+    return Scene(objects, sensor, walls, settings.lidar, duration, seed, size,
                  {'walls_y': walls_y, 'moving': moving})
 
 

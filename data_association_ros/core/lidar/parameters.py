@@ -24,11 +24,12 @@ PRESETS = {
 """Parameter sets per setting (F1Tenth's also in config/lidar_f1tenth.yaml): F1Tenth racing
 pairs points with the nearest boundary point within 0.1 m (JCBB takes most of a 25 ms scan
 period on this 2-core machine; nearest is about 2-3x faster here) on a boundary sampled every
-5 cm (a 0.55 m car), and takes anything longer than 1.1 m for the track's walls; an IMM mixes a calm motion model (white
-angular acceleration 0.5 rad/s^2/sqrt(Hz)) with the agile default (4): a small car far away shows
-a few returns of one face, whose heading scatters by 10-20 deg from scan to scan, and the agile
-model follows that scatter (docs/lidar.md, "Two motion models"). Pedestrians: the size
-class only (docs/lidar.md, "Pedestrians": nothing tuned for them yet)."""
+5 cm (a 0.55 m car), and takes anything longer than 1.1 m for the track's walls; an IMM mixes
+a calm motion model (white angular acceleration 0.5 rad/s^2/sqrt(Hz)) with the agile default
+(4): a small car far away shows a few returns of one face, whose heading scatters by 10-20 deg
+from scan to scan, and the agile model follows that scatter (docs/lidar.md, "Two motion
+models"). Pedestrians: the size class only (docs/lidar.md, "Pedestrians": nothing tuned for
+them yet)."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
 
 
