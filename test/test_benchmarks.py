@@ -56,3 +56,46 @@ def test_node_latency_benchmark_answers_every_message_of_every_server():
     rows = {line[:26].strip(): line[26:].split() for line in output.splitlines()[2:]}
     assert set(rows) == {'bare rclpy echo', 'mahalanobis_nn'}, output
     assert all(row[0] == '6' for row in rows.values()), output
+
+
+def test_mrclam_benchmark_removes_exactly_the_other_robots_sightings():
+    """benchmarks/mrclam_other_robots.without_clutter on robot 1's first 300 scans: every scan
+    keeps its landmark sightings, in order, with their labels, and loses every robot sighting."""
+    import numpy as np
+    from mrclam_other_robots import without_clutter
+    from msg_adapters import cloud_to_array
+    from data_association_ros.bag import topics
+    from data_association_ros.bag.datasets.sequence import CLUTTER
+    from data_association_ros.bag.slam_run import read_inputs
+    messages = read_inputs(ROOT / 'bags' / 'mrclam_robot1', 300)
+    kept = without_clutter(messages)
+    assert [topic for topic, _ in kept] == [topic for topic, _ in messages]
+    removed = scans = 0
+    truth_of = {}
+    for (topic, before), (_, after) in zip(messages, kept):
+        if topic == topics.GROUND_TRUTH:
+            labels = cloud_to_array(before)['landmark']
+            truth_of[(before.header.stamp.sec, before.header.stamp.nanosec)] = labels
+            new = cloud_to_array(after)
+            assert list(new['landmark']) == [label for label in labels if label != CLUTTER]
+            assert list(new['observation']) == list(range(len(new)))
+            removed += int((labels == CLUTTER).sum())
+    for (topic, before), (_, after) in zip(messages, kept):
+        if topic == topics.SENSOR_OBSERVATIONS:
+            scans += 1
+            labels = truth_of[(before.header.stamp.sec, before.header.stamp.nanosec)]
+            old, new = cloud_to_array(before), cloud_to_array(after)
+            assert new.dtype == old.dtype
+            assert np.array_equal(new, old[labels != CLUTTER])
+    assert scans == 300 and removed > 0
+
+
+def test_mrclam_benchmark_groups_wrong_pairs_into_bursts_by_hand():
+    """wrong_bursts: scans with wrong pairs at most BURST_SCANS apart are one burst."""
+    from mrclam_other_robots import BURST_SCANS, wrong_bursts
+    second = 1_000_000_000
+    outcomes = {k * second: (0, 0) for k in range(100)}
+    outcomes[3 * second] = (1, 0)
+    outcomes[(3 + BURST_SCANS) * second] = (2, 1)
+    outcomes[(4 + 2 * BURST_SCANS) * second] = (5, 0)
+    assert wrong_bursts(outcomes) == [(3, 3.0, 3), (4 + 2 * BURST_SCANS, 4.0 + 2 * BURST_SCANS, 5)]

@@ -18,7 +18,7 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Iterable, Optional
 
 import numpy as np
 
@@ -55,19 +55,24 @@ def read_slam_truth(bag: Path, steps: Optional[int] = None) -> SlamTruth:
     reader.require([topics.GROUND_TRUTH])
     wanted = [t for t in (topics.GROUND_TRUTH, topics.GROUND_TRUTH_LANDMARKS,
                           topics.GROUND_TRUTH_POSE) if t in reader.topics]
+    return slam_truth(((m.topic, m.msg) for m in reader.messages(wanted)), steps)
+
+
+def slam_truth(messages: Iterable[tuple[str, Any]], steps: Optional[int] = None) -> SlamTruth:
+    """`read_slam_truth` of (topic, message) pairs: the truth topics' messages, others ignored."""
     truth = SlamTruth({}, {}, {}, {})
-    for message in reader.messages(wanted):
-        stamp = stamp_ns(message.msg.header)
-        if message.topic == topics.GROUND_TRUTH:
+    for topic, msg in messages:
+        if topic == topics.GROUND_TRUTH:
             if steps is not None and len(truth.labels) >= steps:
                 continue
-            points = cloud_to_array(message.msg)
+            points = cloud_to_array(msg)
+            stamp = stamp_ns(msg.header)
             truth.labels[stamp] = points['landmark'].astype(np.int64)
             truth.certain[stamp] = points['probability'] > 0.5
-        elif message.topic == topics.GROUND_TRUTH_POSE:
-            truth.poses[stamp] = pose_from_odometry(message.msg).mean
-        else:
-            points = cloud_to_array(message.msg)
+        elif topic == topics.GROUND_TRUTH_POSE:
+            truth.poses[stamp_ns(msg.header)] = pose_from_odometry(msg).mean
+        elif topic == topics.GROUND_TRUTH_LANDMARKS:
+            points = cloud_to_array(msg)
             truth.landmarks = {int(p['id']): np.array([p['x'], p['y']], dtype=float)
                                for p in points}
     return truth

@@ -86,7 +86,7 @@ LANDMARK_MANAGEMENT = {'drop_misses': 10, 'drop_max_sightings': 0, 'view_half_an
 """ekf_slam_node parameters of the MRCLAM bags (both robots, chosen on robot 1 only): drop any
 landmark predicted in the camera's view (|bearing| <= 0.5 rad, range <= 5 m: 95 % of robot 1's
 sightings lie within 0.48 rad and 5.35 m) on 10 scans in a row without being seen - the other
-robots, which stand still for minutes and then move away.  On robot 1's first 1500 scans
+robots, mapped while seen and gone once they have crept on.  On robot 1's first 1500 scans
 (jcbb, closed loop) 10 misses gave 72.0 % correct, 7: 73.5 % (5 true landmarks missing),
 20: 71.5 %, a 0.4 rad / 4 m view 51.5 %, dropping only landmarks seen once or twice 40-59 %
 (docs/slam.md)."""

@@ -1,0 +1,203 @@
+"""MRCLAM's sightings of the other robots: whether those robots were moving when seen, and the
+closed loop a perfect rejection of them would give (docs/slam.md, "What MRCLAM needs").
+
+    python benchmarks/mrclam_other_robots.py
+
+1. Motion.  The data set has two robots' odometry (1 and 2), so each one's sightings of the other
+   are checked against the seen robot's own odometry: its forward speed |v| and turn rate |w| at
+   the sighting (the odometry row before it), and how far each robot gets in 10 s and 30 s (net
+   displacement of its dead reckoning, over every window starting on a whole second).
+2. Upper bound.  bags/mrclam_robot<n> run in the closed loop (`jcbb`, offline, the bag's
+   parameters, then also without dropping) with every sighting of another robot (truth CLUTTER)
+   removed from its scan: what the node pair gives if no robot ever became a landmark.  "all"
+   scores the removed sightings as right (not paired), over all the bag's observations; the
+   first bursts of wrong pairs (scan index, seconds after the first scan, wrong pairs in the
+   burst) and the robots' gaps of over GAP_S without a sighting show where a run goes off.
+3. Today's robot pairs.  The bag as it is (`jcbb`, closed loop, the bag's parameters): the other
+   robots' sightings paired, how many with a landmark started from a robot sighting, and how
+   long after that landmark's start they come.
+"""
+from __future__ import annotations
+
+import os
+import random
+import sys
+from pathlib import Path
+
+import numpy as np
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(60, 69)))
+
+from msg_adapters import cloud_to_array  # noqa: E402
+from msg_adapters.pointcloud import array_to_cloud  # noqa: E402
+from data_association_ros.bag import topics  # noqa: E402
+from data_association_ros.bag.datasets import DEFAULT_DATA_DIRECTORY  # noqa: E402
+from data_association_ros.bag.datasets.mrclam import FIRST_LANDMARK_SUBJECT  # noqa: E402
+from data_association_ros.bag.datasets.sequence import CLUTTER  # noqa: E402
+from data_association_ros.bag.replay import bag_parameters  # noqa: E402
+from data_association_ros.bag.slam_eval import (RMSE_EXCLUDE, read_slam_truth,  # noqa: E402
+                                                slam_truth)
+from data_association_ros.bag.slam_run import (bag_slam_parameters, read_inputs,  # noqa: E402
+                                               run_offline)
+from data_association_ros.bag.slam_scoring import (answer_identities, scan_outcomes,  # noqa: E402
+                                                   score_run)
+from data_association_ros.pipelines.association import stamp_ns  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+MOVING = 0.01
+"""|v| [m/s] or |w| [rad/s] at or above this: the robot's odometry says it was moving."""
+WINDOWS_S = (10.0, 30.0)
+GAP_S = 10.0
+"""A gap [s] between two scans of a robot longer than this is printed."""
+BURST_SCANS = 20
+"""Wrong pairs at most this many scans apart are one burst."""
+
+
+def _rows(robot: int, kind: str) -> np.ndarray:
+    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
+    return np.loadtxt(folder / f'Robot{robot}_{kind}.dat', comments='#', ndmin=2)
+
+
+def _barcode(robot: int, subject: int) -> int:
+    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
+    pairs = np.loadtxt(folder / 'Barcodes.dat', comments='#', dtype=np.int64)
+    return int(pairs[pairs[:, 0] == subject, 1][0])
+
+
+def moving_when_seen(seer: int, seen: int) -> tuple[int, int]:
+    """(sightings of robot `seen` by robot `seer`, those at which `seen`'s odometry moves)."""
+    measurements = _rows(seer, 'Measurement')
+    times = measurements[measurements[:, 1] == _barcode(seer, seen), 0]
+    odometry = _rows(seen, 'Odometry')
+    row = np.clip(np.searchsorted(odometry[:, 0], times, side='right') - 1, 0, None)
+    moving = (np.abs(odometry[row, 1]) >= MOVING) | (np.abs(odometry[row, 2]) >= MOVING)
+    return len(times), int(moving.sum())
+
+
+def displacements(robot: int, window_s: float) -> np.ndarray:
+    """Net displacement [m] of the robot's dead reckoning over each `window_s` window."""
+    odometry = _rows(robot, 'Odometry')
+    t = odometry[:, 0]
+    dt = np.diff(t, prepend=t[0])
+    yaw = np.cumsum(odometry[:, 2] * dt)
+    x = np.cumsum(odometry[:, 1] * np.cos(yaw) * dt)
+    y = np.cumsum(odometry[:, 1] * np.sin(yaw) * dt)
+    start = np.arange(t[0], t[-1] - window_s, 1.0)
+    return np.hypot(np.interp(start + window_s, t, x) - np.interp(start, t, x),
+                    np.interp(start + window_s, t, y) - np.interp(start, t, y))
+
+
+def without_clutter(messages: list) -> list:
+    """The bag's messages with every observation whose true label is CLUTTER removed from its
+    scan and from the scan's truth (re-numbered)."""
+    keep_of = {}
+    for topic, msg in messages:
+        if topic == topics.GROUND_TRUTH:
+            keep_of[stamp_ns(msg.header)] = cloud_to_array(msg)['landmark'] != CLUTTER
+    out = []
+    for topic, msg in messages:
+        if topic in (topics.SENSOR_OBSERVATIONS, topics.GROUND_TRUTH):
+            points = cloud_to_array(msg)[keep_of[stamp_ns(msg.header)]].copy()
+            if topic == topics.GROUND_TRUTH:
+                points['observation'] = np.arange(len(points))
+            msg = array_to_cloud(points, msg.header)
+        out.append((topic, msg))
+    return out
+
+
+def gaps(robot: int) -> np.ndarray:
+    """(start [s after the first scan], length [s]) of the gaps over GAP_S between scans."""
+    times = np.unique(_rows(robot, 'Measurement')[:, 0])
+    step = np.diff(times)
+    long = step > GAP_S
+    return np.column_stack([times[:-1][long] - times[0], step[long]])
+
+
+def wrong_bursts(outcomes: dict[int, tuple[int, int]]) -> list[tuple[int, float, int]]:
+    """(scan index, s after the first scan, wrong pairs) of each burst of scans with wrong
+    pairs (BURST_SCANS)."""
+    stamps = sorted(outcomes)
+    bursts: list[list] = []
+    for index, stamp in enumerate(stamps):
+        wrong = outcomes[stamp][0]
+        if not wrong:
+            continue
+        if bursts and index - bursts[-1][3] <= BURST_SCANS:
+            bursts[-1][2] += wrong
+            bursts[-1][3] = index
+        else:
+            bursts.append([index, (stamp - stamps[0]) / 1e9, wrong, index])
+    return [(index, seconds, wrong) for index, seconds, wrong, _ in bursts]
+
+
+def upper_bound(robot: int, slam_overrides: dict) -> tuple[dict, float, list]:
+    """(score row without the other robots' sightings, correct % over all observations, the
+    bursts of wrong pairs)."""
+    bag = ROOT / 'bags' / f'mrclam_robot{robot}'
+    messages = read_inputs(bag)
+    observations = sum(int(c.sum()) for c in slam_truth(messages).certain.values())
+    kept = without_clutter(messages)
+    run = run_offline(kept, 'jcbb', 'node', bag_parameters(bag),
+                      {**bag_slam_parameters(bag), **slam_overrides})
+    truth = slam_truth(kept)
+    row = score_run(run, truth, RMSE_EXCLUDE.get(bag.name, ()))
+    scored = sum(int(c.sum()) for c in truth.certain.values())
+    correct_all = (row['correct_percent'] * scored / 100 + observations - scored) / observations
+    return row, 100 * correct_all, wrong_bursts(scan_outcomes(run, truth))
+
+
+def robot_pairs(robot: int) -> tuple[int, int, np.ndarray]:
+    """(robot sightings paired, those paired with a landmark started from a robot sighting, the
+    time [s] from the paired landmark's start to each pair) of the bag's closed loop."""
+    bag = ROOT / 'bags' / f'mrclam_robot{robot}'
+    run = run_offline(read_inputs(bag), 'jcbb', 'node', bag_parameters(bag),
+                      bag_slam_parameters(bag))
+    truth = read_slam_truth(bag)
+    identity = answer_identities(run, truth)
+    paired = robot_started = 0
+    ages = []
+    for stamp, labels in truth.labels.items():
+        for answer, label in zip(run.answers[stamp], labels):
+            if answer >= 0 and label == CLUTTER:
+                origin_label, origin_stamp = identity[int(answer)]
+                paired += 1
+                robot_started += origin_label == CLUTTER
+                ages.append((stamp - origin_stamp) / 1e9)
+    return paired, robot_started, np.array(ages)
+
+
+def main() -> int:
+    for seer, seen in ((1, 2), (2, 1)):
+        count, moving = moving_when_seen(seer, seen)
+        print(f'robot {seer} sees robot {seen} {count} times; robot {seen}\'s odometry moves '
+              f'(|v| or |w| >= {MOVING}) at {moving} of them ({100 * moving / count:.1f} %)')
+    for robot in (1, 2):
+        for window in WINDOWS_S:
+            moved = displacements(robot, window)
+            print(f'robot {robot} moves {np.median(moved):.2f} m (median; 10 %: '
+                  f'{np.percentile(moved, 10):.2f} m) in {window:.0f} s')
+        print(f'robot {robot}: gaps over {GAP_S:.0f} s without a sighting (start s, length s): '
+              + ', '.join(f'{start:.1f} {length:.1f}' for start, length in gaps(robot)))
+    print('closed loop (jcbb) with the other robots\' sightings removed:')
+    for robot in (1, 2):
+        for label, overrides in (('the bag\'s set', {}), ('no dropping', {'drop_misses': 0})):
+            row, correct_all, bursts = upper_bound(robot, overrides)
+            print(f'  mrclam_robot{robot}, {label}: {row["correct_percent"]:.2f} % correct of '
+                  f'the landmark sightings (wrong {row["wrong_percent"]:.2f}, missed '
+                  f'{row["missed_percent"]:.2f}), all {correct_all:.2f} %; map '
+                  f'{row["landmarks"]}, duplicates {row["landmarks_duplicate"]}, false '
+                  f'{row["landmarks_false"]}')
+            print('    first bursts of wrong pairs (scan, s, pairs): '
+                  + ', '.join(f'{i} {t:.1f} {w}' for i, t, w in bursts[:6]))
+    for robot in (1, 2):
+        paired, robot_started, ages = robot_pairs(robot)
+        print(f'mrclam_robot{robot} as it is: {paired} robot sightings paired, '
+              f'{robot_started} with a landmark started from a robot; time since that '
+              f'landmark\'s start median {np.median(ages):.1f} s, 90 % '
+              f'{np.percentile(ages, 90):.1f} s')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
