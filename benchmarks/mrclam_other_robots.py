@@ -7,6 +7,9 @@ closed loop a perfect rejection of them would give (docs/slam.md, "What MRCLAM n
    are checked against the seen robot's own odometry: its forward speed |v| and turn rate |w| at
    the sighting (the odometry row before it), and how far each robot gets in 10 s and 30 s (net
    displacement of its dead reckoning, over every window starting on a whole second).
+   Bursts: one robot's sightings with no pause over BURST_GAPS_S s between them.  A front end that
+   pairs every sighting of a burst after its first caps correct % at 100 (1 - in-burst
+   sightings / observations).
 2. Upper bound.  bags/mrclam_robot<n> run in the closed loop (`jcbb`, offline, the bag's
    parameters, then also without dropping) with every sighting of another robot (truth CLUTTER)
    removed from its scan: what the node pair gives if no robot ever became a landmark.  "all"
@@ -48,6 +51,7 @@ ROOT = Path(__file__).resolve().parents[1]
 MOVING = 0.01
 """|v| [m/s] or |w| [rad/s] at or above this: the robot's odometry says it was moving."""
 WINDOWS_S = (10.0, 30.0)
+BURST_GAPS_S = (1.0, 2.0, 10.0)
 GAP_S = 10.0
 """A gap [s] between two scans of a robot longer than this is printed."""
 BURST_SCANS = 20
@@ -73,6 +77,27 @@ def moving_when_seen(seer: int, seen: int) -> tuple[int, int]:
     row = np.clip(np.searchsorted(odometry[:, 0], times, side='right') - 1, 0, None)
     moving = (np.abs(odometry[row, 1]) >= MOVING) | (np.abs(odometry[row, 2]) >= MOVING)
     return len(times), int(moving.sum())
+
+
+def sighting_bursts(robot: int, pause_s: float) -> tuple[int, int, np.ndarray, int]:
+    """(robot sightings, bursts of them (module doc), burst durations [s], all observations)
+    of robot `robot`'s sightings of the other four robots."""
+    measurements = _rows(robot, 'Measurement')
+    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
+    subject_of = {int(b): int(s) for s, b in
+                  np.loadtxt(folder / 'Barcodes.dat', comments='#', dtype=np.int64)}
+    subjects = np.array([subject_of[int(b)] for b in measurements[:, 1]])
+    sightings, durations = 0, []
+    for subject in range(1, FIRST_LANDMARK_SUBJECT):
+        times = np.sort(measurements[subjects == subject, 0])
+        if not len(times):
+            continue
+        sightings += len(times)
+        breaks = np.flatnonzero(np.diff(times) > pause_s)
+        starts = np.concatenate([[0], breaks + 1])
+        ends = np.concatenate([breaks, [len(times) - 1]])
+        durations.extend(times[ends] - times[starts])
+    return sightings, len(durations), np.array(durations), len(measurements)
 
 
 def displacements(robot: int, window_s: float) -> np.ndarray:
@@ -173,6 +198,13 @@ def main() -> int:
         print(f'robot {seer} sees robot {seen} {count} times; robot {seen}\'s odometry moves '
               f'(|v| or |w| >= {MOVING}) at {moving} of them ({100 * moving / count:.1f} %)')
     for robot in (1, 2):
+        for pause in BURST_GAPS_S:
+            sightings, bursts, durations, observations = sighting_bursts(robot, pause)
+            cap = 100 * (1 - (sightings - bursts) / observations)
+            print(f'robot {robot}: {sightings} sightings of other robots in {bursts} bursts '
+                  f'(pauses <= {pause:.0f} s; duration median {np.median(durations):.1f} s, '
+                  f'90 % {np.percentile(durations, 90):.1f} s); pairing all but the first of '
+                  f'each burst caps correct at {cap:.1f} %')
         for window in WINDOWS_S:
             moved = displacements(robot, window)
             print(f'robot {robot} moves {np.median(moved):.2f} m (median; 10 %: '

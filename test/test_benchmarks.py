@@ -99,3 +99,17 @@ def test_mrclam_benchmark_groups_wrong_pairs_into_bursts_by_hand():
     outcomes[(3 + BURST_SCANS) * second] = (2, 1)
     outcomes[(4 + 2 * BURST_SCANS) * second] = (5, 0)
     assert wrong_bursts(outcomes) == [(3, 3.0, 3), (4 + 2 * BURST_SCANS, 4.0 + 2 * BURST_SCANS, 5)]
+
+
+def test_mrclam_benchmark_counts_bursts_from_one_per_sighting_to_one_per_robot():
+    """sighting_bursts on robot 1's data: 952 robot sightings (the data's SOURCES.md); with no
+    pause allowed every sighting is a burst of duration 0, with any pause allowed each robot
+    seen is one burst; in between the count falls as the pause grows."""
+    from mrclam_other_robots import sighting_bursts
+    sightings, bursts, durations, observations = sighting_bursts(1, -1.0)
+    assert (sightings, bursts, observations) == (952, 952, 5723)
+    assert not durations.any()
+    _, one_each, durations, _ = sighting_bursts(1, 1e9)
+    assert one_each == 4 and (durations > 0).all()
+    counts = [sighting_bursts(1, pause)[1] for pause in (0.5, 1.0, 2.0, 10.0)]
+    assert 952 > counts[0] >= counts[1] >= counts[2] >= counts[3] > 4
