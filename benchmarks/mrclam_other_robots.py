@@ -4,8 +4,8 @@ closed loop a perfect rejection of them would give (docs/slam.md, "What MRCLAM n
     python benchmarks/mrclam_other_robots.py
 
 1. Motion.  The data set has two robots' odometry (1 and 2), so each one's sightings of the other
-   are checked against the seen robot's own odometry: its forward speed |v| and turn rate |w| at
-   the sighting (the odometry row before it), and how far each robot gets in 10 s and 30 s (net
+   are checked against the seen robot's own odometry (MRCLAM logs the commanded velocities): its
+   forward speed |v| and turn rate |w| at the sighting (the odometry row at or before it), and how far each robot gets in 10 s and 30 s (net
    displacement of its dead reckoning, over every window starting on a whole second).
    Bursts: one robot's sightings with no pause over BURST_GAPS_S s between them.  A front end that
    pairs every sighting of a burst after its first caps correct % at 100 (1 - in-burst
@@ -13,12 +13,14 @@ closed loop a perfect rejection of them would give (docs/slam.md, "What MRCLAM n
 2. Upper bound.  bags/mrclam_robot<n> run in the closed loop (`jcbb`, offline, the bag's
    parameters, then also without dropping) with every sighting of another robot (truth CLUTTER)
    removed from its scan: what the node pair gives if no robot ever became a landmark.  "all"
-   scores the removed sightings as right (not paired), over all the bag's observations; the
-   first bursts of wrong pairs (scan index, seconds after the first scan, wrong pairs in the
-   burst) and the robots' gaps of over GAP_S without a sighting show where a run goes off.
+   scores the removed sightings as right (not paired), over all the bag's observations.  Where
+   a run goes off: its bursts of wrong pairs (BURST_SCANS), the share of the wrong pairs in
+   bursts that start within AFTER_GAP_S of the end of a gap of over GAP_S between landmark
+   sightings, and the largest bursts (scan index, s after the first scan, wrong pairs, s since
+   the last such gap ended).
 3. Today's robot pairs.  The bag as it is (`jcbb`, closed loop, the bag's parameters): the other
    robots' sightings paired, how many with a landmark started from a robot sighting, and how
-   long after that landmark's start they come.
+   long after that landmark's start those come.
 """
 from __future__ import annotations
 
@@ -52,8 +54,13 @@ MOVING = 0.01
 """|v| [m/s] or |w| [rad/s] at or above this: the robot's odometry says it was moving."""
 WINDOWS_S = (10.0, 30.0)
 BURST_GAPS_S = (1.0, 2.0, 10.0)
+EARLY_S = 5.0
+"""The cap if only a burst's sightings in its first EARLY_S [s] were paired is printed too."""
 GAP_S = 10.0
-"""A gap [s] between two scans of a robot longer than this is printed."""
+"""A gap [s] between two sightings longer than this is printed."""
+AFTER_GAP_S = 5.0
+"""A burst of wrong pairs starting at most this long [s] after a gap's end is counted as the
+gap's."""
 BURST_SCANS = 20
 """Wrong pairs at most this many scans apart are one burst."""
 
@@ -79,15 +86,17 @@ def moving_when_seen(seer: int, seen: int) -> tuple[int, int]:
     return len(times), int(moving.sum())
 
 
-def sighting_bursts(robot: int, pause_s: float) -> tuple[int, int, np.ndarray, int]:
-    """(robot sightings, bursts of them (module doc), burst durations [s], all observations)
-    of robot `robot`'s sightings of the other four robots."""
+def sighting_bursts(robot: int, pause_s: float, late_s: float = np.inf
+                    ) -> tuple[int, int, np.ndarray, int, int]:
+    """(robot sightings, bursts of them (module doc), burst durations [s], all observations,
+    sightings more than late_s after their burst's first) of robot `robot`'s sightings of the
+    other four robots."""
     measurements = _rows(robot, 'Measurement')
     folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
     subject_of = {int(b): int(s) for s, b in
                   np.loadtxt(folder / 'Barcodes.dat', comments='#', dtype=np.int64)}
     subjects = np.array([subject_of[int(b)] for b in measurements[:, 1]])
-    sightings, durations = 0, []
+    sightings, durations, late = 0, [], 0
     for subject in range(1, FIRST_LANDMARK_SUBJECT):
         times = np.sort(measurements[subjects == subject, 0])
         if not len(times):
@@ -97,7 +106,9 @@ def sighting_bursts(robot: int, pause_s: float) -> tuple[int, int, np.ndarray, i
         starts = np.concatenate([[0], breaks + 1])
         ends = np.concatenate([breaks, [len(times) - 1]])
         durations.extend(times[ends] - times[starts])
-    return sightings, len(durations), np.array(durations), len(measurements)
+        burst_start = times[starts][np.cumsum(np.isin(np.arange(len(times)), starts)) - 1]
+        late += int((times - burst_start > late_s).sum())
+    return sightings, len(durations), np.array(durations), len(measurements), late
 
 
 def displacements(robot: int, window_s: float) -> np.ndarray:
@@ -131,12 +142,24 @@ def without_clutter(messages: list) -> list:
     return out
 
 
-def gaps(robot: int) -> np.ndarray:
-    """(start [s after the first scan], length [s]) of the gaps over GAP_S between scans."""
-    times = np.unique(_rows(robot, 'Measurement')[:, 0])
+def gaps(times: np.ndarray) -> np.ndarray:
+    """(start, length) [s] of the gaps over GAP_S between the sighting times (n,) [s]."""
+    times = np.unique(times)
     step = np.diff(times)
     long = step > GAP_S
-    return np.column_stack([times[:-1][long] - times[0], step[long]])
+    return np.column_stack([times[:-1][long], step[long]])
+
+
+def sighting_times(robot: int, landmarks_only: bool) -> np.ndarray:
+    """Times [s after the first measurement] of robot `robot`'s sightings (of landmarks only)."""
+    measurements = _rows(robot, 'Measurement')
+    times = measurements[:, 0] - measurements[0, 0]
+    if not landmarks_only:
+        return times
+    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
+    landmark_barcodes = [b for s, b in np.loadtxt(folder / 'Barcodes.dat', comments='#',
+                                                  dtype=np.int64) if s >= FIRST_LANDMARK_SUBJECT]
+    return times[np.isin(measurements[:, 1].astype(np.int64), landmark_barcodes)]
 
 
 def wrong_bursts(outcomes: dict[int, tuple[int, int]]) -> list[tuple[int, float, int]]:
@@ -156,9 +179,22 @@ def wrong_bursts(outcomes: dict[int, tuple[int, int]]) -> list[tuple[int, float,
     return [(index, seconds, wrong) for index, seconds, wrong, _ in bursts]
 
 
+def after_gap(bursts: list[tuple[int, float, int]], gap_list: np.ndarray
+              ) -> list[tuple[int, float, int, float]]:
+    """The bursts with the time [s] since the end of the last gap (gaps: (start, length) in
+    the bursts' time; inf before the first)."""
+    ends = gap_list[:, 0] + gap_list[:, 1] if len(gap_list) else np.zeros(0)
+    out = []
+    for index, seconds, wrong in bursts:
+        before = ends[ends <= seconds + 1e-6]
+        out.append((index, seconds, wrong,
+                    max(0.0, seconds - before[-1]) if len(before) else np.inf))
+    return out
+
+
 def upper_bound(robot: int, slam_overrides: dict) -> tuple[dict, float, list]:
     """(score row without the other robots' sightings, correct % over all observations, the
-    bursts of wrong pairs)."""
+    bursts of wrong pairs with the time since the last gap between landmark sightings)."""
     bag = ROOT / 'bags' / f'mrclam_robot{robot}'
     messages = read_inputs(bag)
     observations = sum(int(c.sum()) for c in slam_truth(messages).certain.values())
@@ -169,12 +205,13 @@ def upper_bound(robot: int, slam_overrides: dict) -> tuple[dict, float, list]:
     row = score_run(run, truth, RMSE_EXCLUDE.get(bag.name, ()))
     scored = sum(int(c.sum()) for c in truth.certain.values())
     correct_all = (row['correct_percent'] * scored / 100 + observations - scored) / observations
-    return row, 100 * correct_all, wrong_bursts(scan_outcomes(run, truth))
+    bursts = wrong_bursts(scan_outcomes(run, truth))
+    return row, 100 * correct_all, after_gap(bursts, gaps(sighting_times(robot, True)))
 
 
 def robot_pairs(robot: int) -> tuple[int, int, np.ndarray]:
     """(robot sightings paired, those paired with a landmark started from a robot sighting, the
-    time [s] from the paired landmark's start to each pair) of the bag's closed loop."""
+    time [s] from that landmark's start to each of those pairs) of the bag's closed loop."""
     bag = ROOT / 'bags' / f'mrclam_robot{robot}'
     run = run_offline(read_inputs(bag), 'jcbb', 'node', bag_parameters(bag),
                       bag_slam_parameters(bag))
@@ -187,8 +224,9 @@ def robot_pairs(robot: int) -> tuple[int, int, np.ndarray]:
             if answer >= 0 and label == CLUTTER:
                 origin_label, origin_stamp = identity[int(answer)]
                 paired += 1
-                robot_started += origin_label == CLUTTER
-                ages.append((stamp - origin_stamp) / 1e9)
+                if origin_label == CLUTTER:
+                    robot_started += 1
+                    ages.append((stamp - origin_stamp) / 1e9)
     return paired, robot_started, np.array(ages)
 
 
@@ -199,18 +237,25 @@ def main() -> int:
               f'(|v| or |w| >= {MOVING}) at {moving} of them ({100 * moving / count:.1f} %)')
     for robot in (1, 2):
         for pause in BURST_GAPS_S:
-            sightings, bursts, durations, observations = sighting_bursts(robot, pause)
+            sightings, bursts, durations, observations, late = sighting_bursts(
+                robot, pause, EARLY_S)
             cap = 100 * (1 - (sightings - bursts) / observations)
+            early_cap = 100 * (1 - (sightings - bursts - late) / observations)
             print(f'robot {robot}: {sightings} sightings of other robots in {bursts} bursts '
                   f'(pauses <= {pause:.0f} s; duration median {np.median(durations):.1f} s, '
-                  f'90 % {np.percentile(durations, 90):.1f} s); pairing all but the first of '
-                  f'each burst caps correct at {cap:.1f} %')
+                  f'90 % {np.percentile(durations, 90):.1f} s, longest '
+                  f'{durations.max():.1f} s); pairing all but the first of each burst caps '
+                  f'correct at {cap:.1f} %, only those in its first {EARLY_S:.0f} s at '
+                  f'{early_cap:.1f} %')
         for window in WINDOWS_S:
             moved = displacements(robot, window)
             print(f'robot {robot} moves {np.median(moved):.2f} m (median; 10 %: '
                   f'{np.percentile(moved, 10):.2f} m) in {window:.0f} s')
-        print(f'robot {robot}: gaps over {GAP_S:.0f} s without a sighting (start s, length s): '
-              + ', '.join(f'{start:.1f} {length:.1f}' for start, length in gaps(robot)))
+        for landmarks_only, what in ((False, 'a sighting'), (True, 'a landmark sighting')):
+            found = gaps(sighting_times(robot, landmarks_only))
+            print(f'robot {robot}: {len(found)} gaps over {GAP_S:.0f} s without {what} '
+                  '(start s, length s): '
+                  + ', '.join(f'{start:.1f} {length:.1f}' for start, length in found))
     print('closed loop (jcbb) with the other robots\' sightings removed:')
     for robot in (1, 2):
         for label, overrides in (('the bag\'s set', {}), ('no dropping', {'drop_misses': 0})):
@@ -220,14 +265,19 @@ def main() -> int:
                   f'{row["missed_percent"]:.2f}), all {correct_all:.2f} %; map '
                   f'{row["landmarks"]}, duplicates {row["landmarks_duplicate"]}, false '
                   f'{row["landmarks_false"]}')
-            print('    first bursts of wrong pairs (scan, s, pairs): '
-                  + ', '.join(f'{i} {t:.1f} {w}' for i, t, w in bursts[:6]))
+            wrong = sum(w for _, _, w, _ in bursts)
+            at_gaps = sum(w for _, _, w, since in bursts if since <= AFTER_GAP_S)
+            largest = sorted(bursts, key=lambda b: -b[2])[:6]
+            print(f'    {wrong} wrong pairs, {at_gaps} ({100 * at_gaps / max(wrong, 1):.0f} %) in '
+                  f'bursts starting within {AFTER_GAP_S:.0f} s of a gap\'s end; largest bursts '
+                  '(scan, s, pairs, s after a gap): '
+                  + ', '.join(f'{i} {t:.1f} {w} {since:.1f}' for i, t, w, since in largest))
     for robot in (1, 2):
         paired, robot_started, ages = robot_pairs(robot)
         print(f'mrclam_robot{robot} as it is: {paired} robot sightings paired, '
-              f'{robot_started} with a landmark started from a robot; time since that '
-              f'landmark\'s start median {np.median(ages):.1f} s, 90 % '
-              f'{np.percentile(ages, 90):.1f} s')
+              f'{robot_started} with a landmark started from a robot, those '
+              f'{np.median(ages):.1f} s after that landmark\'s start (median; 90 %: '
+              f'{np.percentile(ages, 90):.1f} s)')
     return 0
 
 

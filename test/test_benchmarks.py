@@ -60,7 +60,8 @@ def test_node_latency_benchmark_answers_every_message_of_every_server():
 
 def test_mrclam_benchmark_removes_exactly_the_other_robots_sightings():
     """benchmarks/mrclam_other_robots.without_clutter on robot 1's first 300 scans: every scan
-    keeps its landmark sightings, in order, with their labels, and loses every robot sighting."""
+    keeps its header and its landmark sightings, in order, with every truth field, and loses
+    every robot sighting."""
     import numpy as np
     from mrclam_other_robots import without_clutter
     from msg_adapters import cloud_to_array
@@ -73,13 +74,19 @@ def test_mrclam_benchmark_removes_exactly_the_other_robots_sightings():
     removed = scans = 0
     truth_of = {}
     for (topic, before), (_, after) in zip(messages, kept):
+        if topic in (topics.GROUND_TRUTH, topics.SENSOR_OBSERVATIONS):
+            assert after.header == before.header
         if topic == topics.GROUND_TRUTH:
-            labels = cloud_to_array(before)['landmark']
-            truth_of[(before.header.stamp.sec, before.header.stamp.nanosec)] = labels
+            old = cloud_to_array(before)
+            truth_of[(before.header.stamp.sec, before.header.stamp.nanosec)] = old['landmark']
             new = cloud_to_array(after)
-            assert list(new['landmark']) == [label for label in labels if label != CLUTTER]
+            wanted = old[old['landmark'] != CLUTTER]
+            assert new.dtype == old.dtype
             assert list(new['observation']) == list(range(len(new)))
-            removed += int((labels == CLUTTER).sum())
+            for name in old.dtype.names:
+                if name != 'observation':
+                    assert np.array_equal(new[name], wanted[name], equal_nan=True), name
+            removed += int((old['landmark'] == CLUTTER).sum())
     for (topic, before), (_, after) in zip(messages, kept):
         if topic == topics.SENSOR_OBSERVATIONS:
             scans += 1
@@ -90,26 +97,88 @@ def test_mrclam_benchmark_removes_exactly_the_other_robots_sightings():
     assert scans == 300 and removed > 0
 
 
+def _mrclam_rows(robot, kind):
+    import numpy as np
+    from data_association_ros.bag.datasets import DEFAULT_DATA_DIRECTORY
+    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
+    return np.loadtxt(folder / f'Robot{robot}_{kind}.dat', comments='#', ndmin=2).tolist()
+
+
+def _mrclam_subjects(robot):
+    from data_association_ros.bag.datasets import DEFAULT_DATA_DIRECTORY
+    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
+    pairs = [line.split() for line in (folder / 'Barcodes.dat').read_text().splitlines()
+             if line.strip() and not line.startswith('#')]
+    return {int(barcode): int(subject) for subject, barcode in pairs}
+
+
+def test_mrclam_benchmark_motion_when_seen_against_a_loop_over_the_rows():
+    """moving_when_seen for robots 1 and 2 against a plain loop: for each sighting, the seen
+    robot's last odometry row at or before it (bisect) moving at 0.01 m/s or rad/s."""
+    from bisect import bisect_right
+    from mrclam_other_robots import MOVING, moving_when_seen
+    for seer, seen in ((1, 2), (2, 1)):
+        barcode = {s: b for b, s in _mrclam_subjects(seer).items()}[seen]
+        odometry = _mrclam_rows(seen, 'Odometry')
+        times = [row[0] for row in odometry]
+        count = moving = 0
+        for time, code, _, _ in _mrclam_rows(seer, 'Measurement'):
+            if int(code) != barcode:
+                continue
+            count += 1
+            _, v, w = odometry[max(bisect_right(times, time) - 1, 0)]
+            moving += abs(v) >= MOVING or abs(w) >= MOVING
+        assert moving_when_seen(seer, seen) == (count, moving)
+        assert count > 200 and moving < count
+
+
+def test_mrclam_benchmark_bursts_against_a_loop_over_the_sightings():
+    """sighting_bursts for robots 1 and 2 (1 s pauses, sightings over 5 s into a burst) against a
+    plain loop over each robot's sorted sightings; with no pause allowed every sighting is a
+    burst of duration 0, with any pause allowed each robot seen is one burst."""
+    import numpy as np
+    from mrclam_other_robots import sighting_bursts
+    for robot in (1, 2):
+        subjects = _mrclam_subjects(robot)
+        rows = _mrclam_rows(robot, 'Measurement')
+        sightings = bursts = late = 0
+        durations = []
+        for seen in range(1, 6):
+            times = sorted(r[0] for r in rows if subjects[int(r[1])] == seen)
+            sightings += len(times)
+            first = previous = None
+            for time in times:
+                if previous is None or time - previous > 1.0:
+                    if first is not None:
+                        durations.append(previous - first)
+                    bursts += 1
+                    first = time
+                late += time - first > 5.0
+                previous = time
+            if first is not None:
+                durations.append(previous - first)
+        found = sighting_bursts(robot, 1.0, 5.0)
+        assert found[:2] == (sightings, bursts) and found[3] == len(rows) and found[4] == late
+        assert np.allclose(sorted(found[2]), sorted(durations))
+        assert 0 < late < sightings - bursts
+    sightings, bursts, durations, observations, _ = sighting_bursts(1, -1.0)
+    assert (sightings, bursts, observations) == (952, 952, 5723)
+    assert not durations.any()
+    assert sighting_bursts(1, 1e9)[1] == 4 and sighting_bursts(2, 1e9)[1] == 4
+
+
 def test_mrclam_benchmark_groups_wrong_pairs_into_bursts_by_hand():
-    """wrong_bursts: scans with wrong pairs at most BURST_SCANS apart are one burst."""
-    from mrclam_other_robots import BURST_SCANS, wrong_bursts
+    """wrong_bursts: scans with wrong pairs at most BURST_SCANS apart are one burst; after_gap:
+    the time since the last gap's end (inf before the first)."""
+    import math
+    import numpy as np
+    from mrclam_other_robots import BURST_SCANS, after_gap, wrong_bursts
     second = 1_000_000_000
     outcomes = {k * second: (0, 0) for k in range(100)}
     outcomes[3 * second] = (1, 0)
     outcomes[(3 + BURST_SCANS) * second] = (2, 1)
     outcomes[(4 + 2 * BURST_SCANS) * second] = (5, 0)
-    assert wrong_bursts(outcomes) == [(3, 3.0, 3), (4 + 2 * BURST_SCANS, 4.0 + 2 * BURST_SCANS, 5)]
-
-
-def test_mrclam_benchmark_counts_bursts_from_one_per_sighting_to_one_per_robot():
-    """sighting_bursts on robot 1's data: 952 robot sightings (the data's SOURCES.md); with no
-    pause allowed every sighting is a burst of duration 0, with any pause allowed each robot
-    seen is one burst; in between the count falls as the pause grows."""
-    from mrclam_other_robots import sighting_bursts
-    sightings, bursts, durations, observations = sighting_bursts(1, -1.0)
-    assert (sightings, bursts, observations) == (952, 952, 5723)
-    assert not durations.any()
-    _, one_each, durations, _ = sighting_bursts(1, 1e9)
-    assert one_each == 4 and (durations > 0).all()
-    counts = [sighting_bursts(1, pause)[1] for pause in (0.5, 1.0, 2.0, 10.0)]
-    assert 952 > counts[0] >= counts[1] >= counts[2] >= counts[3] > 4
+    bursts = wrong_bursts(outcomes)
+    assert bursts == [(3, 3.0, 3), (4 + 2 * BURST_SCANS, 4.0 + 2 * BURST_SCANS, 5)]
+    timed = after_gap(bursts, np.array([[10.0, 20.0]]))   # a gap from 10 s to 30 s
+    assert math.isinf(timed[0][3]) and timed[1][3] == 4.0 + 2 * BURST_SCANS - 30.0
