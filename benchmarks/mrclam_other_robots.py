@@ -78,8 +78,7 @@ def _barcode(robot: int, subject: int) -> int:
 
 def moving_when_seen(seer: int, seen: int) -> tuple[int, int]:
     """(sightings of robot `seen` by robot `seer`, those at which `seen`'s odometry moves)."""
-    measurements = _rows(seer, 'Measurement')
-    times = measurements[measurements[:, 1] == _barcode(seer, seen), 0]
+    times = seen_times(seer, seen)
     odometry = _rows(seen, 'Odometry')
     row = np.clip(np.searchsorted(odometry[:, 0], times, side='right') - 1, 0, None)
     moving = (np.abs(odometry[row, 1]) >= MOVING) | (np.abs(odometry[row, 2]) >= MOVING)
@@ -109,6 +108,18 @@ def sighting_bursts(robot: int, pause_s: float, late_s: float = np.inf
         burst_start = times[starts][np.cumsum(np.isin(np.arange(len(times)), starts)) - 1]
         late += int((times - burst_start > late_s).sum())
     return sightings, len(durations), np.array(durations), len(measurements), late
+
+
+def seen_times(seer: int, seen: int) -> np.ndarray:
+    """Times [s] of robot `seer`'s sightings of robot `seen`."""
+    measurements = _rows(seer, 'Measurement')
+    return measurements[measurements[:, 1] == _barcode(seer, seen), 0]
+
+
+def mean_speed(robot: int) -> float:
+    """Time-weighted mean |v| [m/s] of the robot's odometry (each row held until the next)."""
+    odometry = _rows(robot, 'Odometry')
+    return float(np.average(np.abs(odometry[:-1, 1]), weights=np.diff(odometry[:, 0])))
 
 
 def displacements(robot: int, window_s: float) -> np.ndarray:
@@ -233,8 +244,10 @@ def robot_pairs(robot: int) -> tuple[int, int, np.ndarray]:
 def main() -> int:
     for seer, seen in ((1, 2), (2, 1)):
         count, moving = moving_when_seen(seer, seen)
-        print(f'robot {seer} sees robot {seen} {count} times; robot {seen}\'s odometry moves '
-              f'(|v| or |w| >= {MOVING}) at {moving} of them ({100 * moving / count:.1f} %)')
+        print(f'robot {seer} sees robot {seen} {count} times (median pause '
+              f'{np.median(np.diff(np.unique(seen_times(seer, seen)))):.2f} s); robot {seen}\'s '
+              f'odometry moves (|v| or |w| >= {MOVING}) at {moving} of them '
+              f'({100 * moving / count:.1f} %)')
     for robot in (1, 2):
         for pause in BURST_GAPS_S:
             sightings, bursts, durations, observations, late = sighting_bursts(
@@ -247,6 +260,7 @@ def main() -> int:
                   f'{durations.max():.1f} s); pairing all but the first of each burst caps '
                   f'correct at {cap:.1f} %, only those in its first {EARLY_S:.0f} s at '
                   f'{early_cap:.1f} %')
+        print(f'robot {robot}: mean forward speed {mean_speed(robot):.3f} m/s')
         for window in WINDOWS_S:
             moved = displacements(robot, window)
             print(f'robot {robot} moves {np.median(moved):.2f} m (median; 10 %: '
