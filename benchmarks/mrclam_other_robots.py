@@ -5,8 +5,9 @@ closed loop a perfect rejection of them would give (docs/slam.md, "What MRCLAM n
 
 1. Motion.  The data set has two robots' odometry (1 and 2), so each one's sightings of the other
    are checked against the seen robot's own odometry (MRCLAM logs the commanded velocities): its
-   forward speed |v| and turn rate |w| at the sighting (the odometry row at or before it), and how far each robot gets in 10 s and 30 s (net
-   displacement of its dead reckoning, over every window starting on a whole second).
+   forward speed |v| and turn rate |w| at the sighting (the odometry row at or before it), and
+   how far each robot gets in 10 s and 30 s (net displacement of its dead reckoning, over every
+   window starting on a whole second).
    Bursts: one robot's sightings with no pause over BURST_GAPS_S s between them.  A front end that
    pairs every sighting of a burst after its first caps correct % at 100 (1 - in-burst
    sightings / observations).
@@ -27,6 +28,7 @@ from __future__ import annotations
 import os
 import random
 import sys
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +40,10 @@ from msg_adapters import cloud_to_array  # noqa: E402
 from msg_adapters.pointcloud import array_to_cloud  # noqa: E402
 from data_association_ros.bag import topics  # noqa: E402
 from data_association_ros.bag.datasets import DEFAULT_DATA_DIRECTORY  # noqa: E402
-from data_association_ros.bag.datasets.mrclam import FIRST_LANDMARK_SUBJECT  # noqa: E402
+from data_association_ros.bag.datasets.dead_reckoning import (integrate_hold,  # noqa: E402
+                                                             milliseconds)
+from data_association_ros.bag.datasets.mrclam import (FIRST_LANDMARK_SUBJECT,  # noqa: E402
+                                                      subjects_of)
 from data_association_ros.bag.datasets.sequence import CLUTTER  # noqa: E402
 from data_association_ros.bag.replay import bag_parameters  # noqa: E402
 from data_association_ros.bag.slam_eval import (RMSE_EXCLUDE, read_slam_truth,  # noqa: E402
@@ -52,7 +57,7 @@ from data_association_ros.pipelines.association import stamp_ns  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 MOVING = 0.01
 """|v| [m/s] or |w| [rad/s] at or above this: the robot's odometry says it was moving."""
-WINDOWS_S = (10.0, 30.0)
+WINDOWS_S = (10, 30)
 BURST_GAPS_S = (1.0, 2.0, 10.0)
 EARLY_S = 5.0
 """The cap if only a burst's sightings in its first EARLY_S [s] were paired is printed too."""
@@ -65,15 +70,20 @@ BURST_SCANS = 20
 """Wrong pairs at most this many scans apart are one burst."""
 
 
+def _folder(robot: int) -> Path:
+    return DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
+
+
+@lru_cache(maxsize=None)
 def _rows(robot: int, kind: str) -> np.ndarray:
-    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
-    return np.loadtxt(folder / f'Robot{robot}_{kind}.dat', comments='#', ndmin=2)
+    """Robot<robot>_<kind>.dat's rows (read once; not to be modified)."""
+    return np.loadtxt(_folder(robot) / f'Robot{robot}_{kind}.dat', comments='#', ndmin=2)
 
 
-def _barcode(robot: int, subject: int) -> int:
-    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
-    pairs = np.loadtxt(folder / 'Barcodes.dat', comments='#', dtype=np.int64)
-    return int(pairs[pairs[:, 0] == subject, 1][0])
+@lru_cache(maxsize=None)
+def _subjects(robot: int) -> np.ndarray:
+    """The subject of each of robot `robot`'s measurements (mrclam.subjects_of)."""
+    return subjects_of(_folder(robot), _rows(robot, 'Measurement')[:, 1])
 
 
 def moving_when_seen(seer: int, seen: int) -> tuple[int, int]:
@@ -90,11 +100,7 @@ def sighting_bursts(robot: int, pause_s: float, late_s: float = np.inf
     """(robot sightings, bursts of them (module doc), burst durations [s], all observations,
     sightings more than late_s after their burst's first) of robot `robot`'s sightings of the
     other four robots."""
-    measurements = _rows(robot, 'Measurement')
-    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
-    subject_of = {int(b): int(s) for s, b in
-                  np.loadtxt(folder / 'Barcodes.dat', comments='#', dtype=np.int64)}
-    subjects = np.array([subject_of[int(b)] for b in measurements[:, 1]])
+    measurements, subjects = _rows(robot, 'Measurement'), _subjects(robot)
     sightings, durations, late = 0, [], 0
     for subject in range(1, FIRST_LANDMARK_SUBJECT):
         times = np.sort(measurements[subjects == subject, 0])
@@ -105,15 +111,13 @@ def sighting_bursts(robot: int, pause_s: float, late_s: float = np.inf
         starts = np.concatenate([[0], breaks + 1])
         ends = np.concatenate([breaks, [len(times) - 1]])
         durations.extend(times[ends] - times[starts])
-        burst_start = times[starts][np.cumsum(np.isin(np.arange(len(times)), starts)) - 1]
-        late += int((times - burst_start > late_s).sum())
+        late += int((times - np.repeat(times[starts], ends - starts + 1) > late_s).sum())
     return sightings, len(durations), np.array(durations), len(measurements), late
 
 
 def seen_times(seer: int, seen: int) -> np.ndarray:
     """Times [s] of robot `seer`'s sightings of robot `seen`."""
-    measurements = _rows(seer, 'Measurement')
-    return measurements[measurements[:, 1] == _barcode(seer, seen), 0]
+    return _rows(seer, 'Measurement')[_subjects(seer) == seen, 0]
 
 
 def mean_speed(robot: int) -> float:
@@ -122,17 +126,14 @@ def mean_speed(robot: int) -> float:
     return float(np.average(np.abs(odometry[:-1, 1]), weights=np.diff(odometry[:, 0])))
 
 
-def displacements(robot: int, window_s: float) -> np.ndarray:
-    """Net displacement [m] of the robot's dead reckoning over each `window_s` window."""
+def displacements(robot: int, window_s: int) -> np.ndarray:
+    """Net displacement [m] of the robot's dead reckoning (dead_reckoning.integrate_hold, as the
+    bags' converter) over each `window_s` [whole s] window starting on a whole second."""
     odometry = _rows(robot, 'Odometry')
-    t = odometry[:, 0]
-    dt = np.diff(t, prepend=t[0])
-    yaw = np.cumsum(odometry[:, 2] * dt)
-    x = np.cumsum(odometry[:, 1] * np.cos(yaw) * dt)
-    y = np.cumsum(odometry[:, 1] * np.sin(yaw) * dt)
-    start = np.arange(t[0], t[-1] - window_s, 1.0)
-    return np.hypot(np.interp(start + window_s, t, x) - np.interp(start, t, x),
-                    np.interp(start + window_s, t, y) - np.interp(start, t, y))
+    odometry_ms = milliseconds(odometry[:, 0])
+    seconds = np.arange(odometry_ms[0], odometry_ms[-1] + 1, 1000)
+    positions = integrate_hold(odometry_ms, odometry[:, 1], odometry[:, 2], seconds)[0][:, :2]
+    return np.hypot(*(positions[window_s:] - positions[:-window_s]).T)
 
 
 def without_clutter(messages: list) -> list:
@@ -165,12 +166,7 @@ def sighting_times(robot: int, landmarks_only: bool) -> np.ndarray:
     """Times [s after the first measurement] of robot `robot`'s sightings (of landmarks only)."""
     measurements = _rows(robot, 'Measurement')
     times = measurements[:, 0] - measurements[0, 0]
-    if not landmarks_only:
-        return times
-    folder = DEFAULT_DATA_DIRECTORY / f'utias_mrclam_ds1_robot{robot}'
-    landmark_barcodes = [b for s, b in np.loadtxt(folder / 'Barcodes.dat', comments='#',
-                                                  dtype=np.int64) if s >= FIRST_LANDMARK_SUBJECT]
-    return times[np.isin(measurements[:, 1].astype(np.int64), landmark_barcodes)]
+    return times[_subjects(robot) >= FIRST_LANDMARK_SUBJECT] if landmarks_only else times
 
 
 def wrong_bursts(outcomes: dict[int, tuple[int, int]]) -> list[tuple[int, float, int]]:
@@ -264,7 +260,7 @@ def main() -> int:
         for window in WINDOWS_S:
             moved = displacements(robot, window)
             print(f'robot {robot} moves {np.median(moved):.2f} m (median; 10 %: '
-                  f'{np.percentile(moved, 10):.2f} m) in {window:.0f} s')
+                  f'{np.percentile(moved, 10):.2f} m) in {window} s')
         for landmarks_only, what in ((False, 'a sighting'), (True, 'a landmark sighting')):
             found = gaps(sighting_times(robot, landmarks_only))
             print(f'robot {robot}: {len(found)} gaps over {GAP_S:.0f} s without {what} '

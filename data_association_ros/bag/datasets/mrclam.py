@@ -98,6 +98,19 @@ def _increment_covariances(distance: np.ndarray, rotation: np.ndarray) -> np.nda
                                  YAW_FLOOR, YAW_PER_RADIAN, YAW_PER_METRE)
 
 
+def subjects_of(data_directory: Path, barcodes: np.ndarray) -> np.ndarray:
+    """The subject (1-5 robots, 6-20 landmarks) of each measurement barcode (n,), by the
+    folder's Barcodes.dat; ValueError for a barcode it does not list."""
+    table = np.loadtxt(Path(data_directory) / 'Barcodes.dat', comments='#', dtype=np.int64,
+                       ndmin=2)
+    subject_of = np.full(table[:, 1].max() + 1, -1, dtype=np.int64)
+    subject_of[table[:, 1]] = table[:, 0]
+    subjects = subject_of[np.asarray(barcodes).astype(np.int64)]
+    if np.any(subjects < 0):
+        raise ValueError('a measurement barcode is not in Barcodes.dat')
+    return subjects
+
+
 def load(data_directory: Path, robot: int = 1) -> SlamSequence:
     """MRCLAM Dataset 1 robot `robot` in `data_directory` (the utias_mrclam_ds1_robot<robot>
     folder), 'range_bearing'; robot 1: 3774 steps."""
@@ -105,7 +118,6 @@ def load(data_directory: Path, robot: int = 1) -> SlamSequence:
     odometry = np.loadtxt(data_directory / f'Robot{robot}_Odometry.dat', comments='#', ndmin=2)
     measurements = np.loadtxt(data_directory / f'Robot{robot}_Measurement.dat', comments='#',
                               ndmin=2)
-    barcodes = np.loadtxt(data_directory / 'Barcodes.dat', comments='#', dtype=np.int64, ndmin=2)
     ground = np.loadtxt(data_directory / 'Landmark_Groundtruth.dat', comments='#', ndmin=2)
 
     odometry_ms = milliseconds(odometry[:, 0])
@@ -114,11 +126,7 @@ def load(data_directory: Path, robot: int = 1) -> SlamSequence:
     measurement_ms = milliseconds(measurements[:, 0])
     if np.any(np.diff(odometry_ms) <= 0) or np.any(np.diff(measurement_ms) < 0):
         raise ValueError('odometry or measurement times are not sorted')
-    subject_of = np.full(barcodes[:, 1].max() + 1, -1, dtype=np.int64)
-    subject_of[barcodes[:, 1]] = barcodes[:, 0]
-    subjects = subject_of[measurements[:, 1].astype(np.int64)]
-    if np.any(subjects < 0):
-        raise ValueError('a measurement barcode is not in Barcodes.dat')
+    subjects = subjects_of(data_directory, measurements[:, 1])
     truth = np.where(subjects >= FIRST_LANDMARK_SUBJECT, subjects, CLUTTER)
 
     scan_ms, first = np.unique(measurement_ms, return_index=True)
