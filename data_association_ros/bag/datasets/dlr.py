@@ -49,19 +49,23 @@ chi2 of their covariance; step 884: 6 sigma in dy, 2 sigma in yaw, and all 9 lan
 scan leave their gates): a scan that would start mostly new landmarks is associated again with
 10 cm / 0.05 rad more pose noise (core/pose_recovery.py).  Full bag, jcbb closed loop: 97.08 %
 correct without, 98.01 % with (0.2 m / 0.1 rad: 97.40 %)."""
-MAP_REFINDING = {'refind_window_scans': 15}
-"""association_node parameters for DLR's last loop closure (core/map_refinding.py): the filter
-comes back 4-5 m and 10-20 deg off; the last 15 scans' observations registered against the
-landmarks first seen 300 or more scans earlier (default settings).  Full bag, jcbb closed loop:
-98.01 -> 98.79 % correct, duplicates 144 -> 76, pose RMSE 2.34 -> 1.00 m (docs/slam.md)."""
-LANDMARK_MERGING = {'merge_probability': 0.99, 'merge_floor': 0.15}
+MAP_REFINDING = {'refind_window_scans': 15, 'refind_min_landmarks': 7}
+"""association_node parameters for DLR's loop closures (core/map_refinding.py): the filter
+comes back 4-5 m and 10-20 deg off at the last one; the last 15 scans' observations registered
+against the landmarks first seen 300 or more scans earlier.  Full bag, jcbb closed loop, with 8
+landmarks to match (the default): 98.01 -> 98.79 % correct, duplicates 144 -> 76, pose RMSE
+2.34 -> 1.00 m.  7 also takes the robot's return to its start at scan 1210 (7 old landmarks
+matched), whose shifted copy of the first landmarks was most of the duplicates left after the
+merging: with the merging below, maximum_likelihood 98.30 -> 98.40 %, duplicates 29 -> 14.  6
+registers a wrong alignment (95.99 %, 24) (docs/slam.md, "Merging with a floor")."""
+LANDMARK_MERGING = {'merge_probability': 0.99, 'merge_floor': 0.13}
 """ekf_slam_node parameters of the bag: merge two landmarks no scan saw together whose
-difference passes the 0.99 chi-square test with 0.15 m of independent noise added to it (the
+difference passes the 0.99 chi-square test with 0.13 m of independent noise added to it (the
 filter's covariances are centimetres while its pose drifts metres; core/slam/
-landmark_management.py).  Full bag, closed loop, duplicates before -> after: maximum_likelihood
-61 -> 29 (98.80 -> 98.30 % correct), jcbb 77 -> 30 (98.78 -> 97.93 %); floors 0.12-0.16 give
-29-31 duplicates and 98.04-98.39 % with maximum_likelihood, 0.05 keeps jcbb at 98.71 % with 48,
-0.2 loses the map (96.62 %) (docs/slam.md)."""
+landmark_management.py).  Full bag, closed loop, with the re-finding above: floors 0.12-0.15
+give maximum_likelihood 98.28-98.40 % with 12-15 duplicates, 0.12-0.13 keep jcbb and
+mahalanobis_nn at 98.04-98.12 % with 14-16; 0.10 loses the map (95.58 %, 47), 0.16 97.85 %
+(docs/slam.md)."""
 
 
 def _load(path: Path, name: str):
