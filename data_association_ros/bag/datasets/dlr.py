@@ -53,11 +53,13 @@ MAP_REFINDING = {'refind_window_scans': 15, 'refind_min_landmarks': 7}
 """association_node parameters for DLR's loop closures (core/map_refinding.py): the filter
 comes back 4-5 m and 10-20 deg off at the last one; the last 15 scans' observations registered
 against the landmarks first seen 300 or more scans earlier.  Full bag, jcbb closed loop, with 8
-landmarks to match (the default): 98.01 -> 98.79 % correct, duplicates 144 -> 76, pose RMSE
-2.34 -> 1.00 m.  7 also takes the robot's return to its start at scan 1210 (7 old landmarks
+landmarks to match (the default): 98.01 -> 98.78 % correct, duplicates 144 -> 77, pose RMSE
+2.35 -> 0.99 m.  7 also takes the robot's return to its start at scan 1210 (7 old landmarks
 matched), whose shifted copy of the first landmarks was most of the duplicates left after the
-merging: with the merging below, maximum_likelihood 98.30 -> 98.40 %, duplicates 29 -> 14.  6
-registers a wrong alignment (95.99 %, 24) (docs/slam.md, "Merging with a floor")."""
+merging: with 7 and the 0.13 m floor below (8 and 0.15 m before), maximum_likelihood 98.30 ->
+98.40 %, duplicates 29 -> 14; jcbb 97.93 -> 98.07 % (30 -> 15).  With 7 at 0.15 m, jcbb gives
+97.20 % (18).  6 registers a wrong alignment (97.10 % with maximum_likelihood at 0.13 m)
+(docs/slam.md, "DLR's set since 2026-12-06")."""
 LANDMARK_MERGING = {'merge_probability': 0.99, 'merge_floor': 0.13}
 """ekf_slam_node parameters of the bag: merge two landmarks no scan saw together whose
 difference passes the 0.99 chi-square test with 0.13 m of independent noise added to it (the
