@@ -22,6 +22,12 @@ closed loop a perfect rejection of them would give (docs/slam.md, "What MRCLAM n
 3. Today's robot pairs.  The bag as it is (`jcbb`, closed loop, the bag's parameters): the other
    robots' sightings paired, how many with a landmark started from a robot sighting, and how
    long after that landmark's start those come.
+4. Drift.  In that run, each landmark's paired sightings placed in the map frame with the
+   filter's pose of their scan; the speed [m/s] of a least-squares line through their positions
+   over the landmark's first DRIFT_WINDOWS_S (landmarks with DRIFT_MIN_SIGHTINGS sightings
+   spanning DRIFT_MIN_SPAN_S s), for landmarks started from a robot and from a true landmark,
+   with the pairs each gets after the window: whether a rule that removes a landmark shown to
+   move could tell the two apart (DRIFT_CUT_MPS).
 """
 from __future__ import annotations
 
@@ -30,6 +36,7 @@ import random
 import sys
 from functools import lru_cache
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -68,6 +75,9 @@ AFTER_GAP_S = 5.0
 gap's."""
 BURST_SCANS = 20
 """Wrong pairs at most this many scans apart are one burst."""
+DRIFT_WINDOWS_S = (10.0, 5.0)
+DRIFT_MIN_SIGHTINGS, DRIFT_MIN_SPAN_S = 4, 4.0
+DRIFT_CUT_MPS = 0.03
 
 
 def _folder(robot: int) -> Path:
@@ -216,13 +226,19 @@ def upper_bound(robot: int, slam_overrides: dict) -> tuple[dict, float, list]:
     return row, 100 * correct_all, after_gap(bursts, gaps(sighting_times(robot, True)))
 
 
+@lru_cache(maxsize=None)
+def closed_loop(robot: int) -> tuple:
+    """(messages, run, truth) of the bag's closed loop (`jcbb`, offline, the bag's set)."""
+    bag = ROOT / 'bags' / f'mrclam_robot{robot}'
+    messages = read_inputs(bag)
+    run = run_offline(messages, 'jcbb', 'node', bag_parameters(bag), bag_slam_parameters(bag))
+    return messages, run, read_slam_truth(bag)
+
+
 def robot_pairs(robot: int) -> tuple[int, int, np.ndarray]:
     """(robot sightings paired, those paired with a landmark started from a robot sighting, the
     time [s] from that landmark's start to each of those pairs) of the bag's closed loop."""
-    bag = ROOT / 'bags' / f'mrclam_robot{robot}'
-    run = run_offline(read_inputs(bag), 'jcbb', 'node', bag_parameters(bag),
-                      bag_slam_parameters(bag))
-    truth = read_slam_truth(bag)
+    _, run, truth = closed_loop(robot)
     identity = answer_identities(run, truth)
     paired = robot_started = 0
     ages = []
@@ -235,6 +251,55 @@ def robot_pairs(robot: int) -> tuple[int, int, np.ndarray]:
                     robot_started += 1
                     ages.append((stamp - origin_stamp) / 1e9)
     return paired, robot_started, np.array(ages)
+
+
+def paired_positions(messages: list, answers: dict[int, np.ndarray],
+                     poses: dict[int, np.ndarray]) -> dict[int, np.ndarray]:
+    """Landmark id -> (n, 3) [t s, x, y] of the range-bearing sightings paired with it, placed
+    in the map frame with the pose (x, y, yaw) of their scan: p + r (cos(yaw + b), sin(yaw +
+    b)).  Scans without an answer or a pose are left out."""
+    found: dict[int, list] = {}
+    for topic, msg in messages:
+        if topic != topics.SENSOR_OBSERVATIONS:
+            continue
+        stamp = stamp_ns(msg.header)
+        if stamp not in answers or stamp not in poses:
+            continue
+        points, pose = cloud_to_array(msg), poses[stamp]
+        for answer, r, b in zip(answers[stamp], points['range'], points['bearing']):
+            if answer >= 0:
+                angle = pose[2] + b
+                found.setdefault(int(answer), []).append(
+                    (stamp / 1e9, pose[0] + r * np.cos(angle), pose[1] + r * np.sin(angle)))
+    return {landmark: np.array(rows) for landmark, rows in found.items()}
+
+
+def drift_speed(track: np.ndarray, start_s: float, window_s: float) -> Optional[float]:
+    """Speed [m/s] of the least-squares line x(t), y(t) through the rows [t, x, y] of `track`
+    with start_s <= t <= start_s + window_s; None with fewer than DRIFT_MIN_SIGHTINGS rows or a
+    span under DRIFT_MIN_SPAN_S."""
+    rows = track[(track[:, 0] >= start_s) & (track[:, 0] <= start_s + window_s)]
+    if len(rows) < DRIFT_MIN_SIGHTINGS or np.ptp(rows[:, 0]) < DRIFT_MIN_SPAN_S:
+        return None
+    slopes = np.polyfit(rows[:, 0] - rows[0, 0], rows[:, 1:], 1)[0]
+    return float(np.hypot(*slopes))
+
+
+def drift(robot: int, window_s: float) -> dict[str, list[tuple[float, int]]]:
+    """'robot' / 'landmark' (what the landmark was started from) -> (drift speed over its first
+    window_s, pairs after the window) per landmark of the bag's closed loop."""
+    messages, run, truth = closed_loop(robot)
+    identity = answer_identities(run, truth)
+    out: dict[str, list[tuple[float, int]]] = {'robot': [], 'landmark': []}
+    for landmark, track in paired_positions(messages, run.answers, run.poses).items():
+        if landmark not in identity:
+            continue
+        label, origin = identity[landmark]
+        speed = drift_speed(track, origin / 1e9, window_s)
+        if speed is not None:
+            later = int((track[:, 0] > origin / 1e9 + window_s).sum())
+            out['robot' if label == CLUTTER else 'landmark'].append((speed, later))
+    return out
 
 
 def main() -> int:
@@ -288,6 +353,16 @@ def main() -> int:
               f'{robot_started} with a landmark started from a robot, those '
               f'{np.median(ages):.1f} s after that landmark\'s start (median; 90 %: '
               f'{np.percentile(ages, 90):.1f} s)')
+    for robot in (1, 2):
+        for window in DRIFT_WINDOWS_S:
+            for kind, rows in drift(robot, window).items():
+                speeds = np.array([speed for speed, _ in rows])
+                later = np.array([count for _, count in rows])
+                fast = speeds > DRIFT_CUT_MPS
+                print(f'mrclam_robot{robot}, landmarks started from a {kind}, first {window:.0f} '
+                      f's: {len(rows)}, drift {np.median(speeds):.3f} m/s (median; 90 %: '
+                      f'{np.percentile(speeds, 90):.3f}), {later.sum()} pairs after; over '
+                      f'{DRIFT_CUT_MPS} m/s: {fast.sum()} with {later[fast].sum()} later pairs')
     return 0
 
 

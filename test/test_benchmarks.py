@@ -182,3 +182,43 @@ def test_mrclam_benchmark_groups_wrong_pairs_into_bursts_by_hand():
     assert bursts == [(3, 3.0, 3), (4 + 2 * BURST_SCANS, 4.0 + 2 * BURST_SCANS, 5)]
     timed = after_gap(bursts, np.array([[10.0, 20.0]]))   # a gap from 10 s to 30 s
     assert math.isinf(timed[0][3]) and timed[1][3] == 4.0 + 2 * BURST_SCANS - 30.0
+
+
+def test_mrclam_benchmark_places_paired_sightings_and_fits_their_drift_by_hand():
+    """paired_positions: p + r (cos(yaw + b), sin(yaw + b)) per paired sighting, NEW and
+    unassociated ones and scans without a pose left out; drift_speed: the slope of a straight
+    line through exact linear motion, None below DRIFT_MIN_SIGHTINGS or DRIFT_MIN_SPAN_S."""
+    import math
+    import numpy as np
+    from mrclam_other_robots import (DRIFT_MIN_SIGHTINGS, DRIFT_MIN_SPAN_S, drift_speed,
+                                     paired_positions)
+    from msg_adapters.pointcloud import array_to_cloud
+    from std_msgs.msg import Header
+    from builtin_interfaces.msg import Time
+    from data_association_ros.bag import topics
+    second = 1_000_000_000
+
+    def scan(sec, ranges, bearings):
+        cloud = array_to_cloud({'range': np.array(ranges, np.float32),
+                                'bearing': np.array(bearings, np.float32)},
+                               Header(stamp=Time(sec=sec), frame_id='base_link'))
+        return topics.SENSOR_OBSERVATIONS, cloud
+    messages = [scan(1, [2.0, 1.0], [0.0, math.pi / 2]), ('/odometry', None),
+                scan(2, [4.0], [-math.pi / 2]), scan(3, [1.0], [0.0])]
+    answers = {1 * second: np.array([7, -1]), 2 * second: np.array([7]),
+               3 * second: np.array([7])}
+    poses = {1 * second: np.array([1.0, 2.0, math.pi / 2]), 2 * second: np.array([0.0, 0.0, 0.0])}
+    found = paired_positions(messages, answers, poses)
+    assert set(found) == {7}
+    assert np.allclose(found[7], [[1.0, 1.0, 4.0], [2.0, 0.0, -4.0]], atol=1e-6)
+
+    times = np.arange(DRIFT_MIN_SIGHTINGS + 1, dtype=float) * DRIFT_MIN_SPAN_S / DRIFT_MIN_SIGHTINGS
+    track = np.c_[times + 100.0, 3.0 + 0.03 * times, -1.0 - 0.04 * times]
+    assert math.isclose(drift_speed(track, 100.0, 1e9), 0.05)
+    few = track[np.linspace(0, len(track) - 1, DRIFT_MIN_SIGHTINGS - 1).astype(int)]
+    assert np.ptp(few[:, 0]) >= DRIFT_MIN_SPAN_S                             # spans enough
+    assert drift_speed(few, 100.0, 1e9) is None                              # but too few
+    dense = np.c_[100.0 + np.linspace(0.0, DRIFT_MIN_SPAN_S / 2, 2 * DRIFT_MIN_SIGHTINGS),
+                  np.zeros(2 * DRIFT_MIN_SIGHTINGS), np.zeros(2 * DRIFT_MIN_SIGHTINGS)]
+    assert drift_speed(dense, 100.0, 1e9) is None                            # too short a span
+    assert drift_speed(track, 200.0, 1e9) is None                            # none in the window
