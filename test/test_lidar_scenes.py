@@ -247,6 +247,22 @@ def test_generated_scenes_are_reproducible_and_keep_objects_apart():
     np.testing.assert_allclose(steps, track.perimeter / 200, rtol=1e-3)  # unit speed
 
 
+def test_seen_lengths_of_a_car_driving_away_end_on_and_of_one_crossing_side_on():
+    """Scene.seen_lengths, by geometry: a 4 m x 1.8 m car driving away along the sensor's x
+    axis shows only its rear face (no extent along its axis); one crossing 10 m ahead at 90 deg
+    shows its whole side (its length, to the beam spacing: 0.25 deg at 10 m is 4.4 cm); a scan
+    where the car is out of the field of view gives 0."""
+    away = SceneObject(1, 4.0, 1.8, Pieces((12.0, 0.0, 0.0), ((1.0, 5.0, 0.0),)))
+    crossing = SceneObject(2, 4.0, 1.8, Pieces((10.0, -1.0, np.pi / 2), ((1.0, 2.0, 0.0),)))
+    behind = SceneObject(3, 4.0, 1.8, Pieces((-10.0, 0.0, 0.0), ((1.0, 0.0, 0.0),)))
+    for item, low, high in ((away, 0.0, 1e-6), (crossing, 4.0 - 0.1, 4.0 + 1e-6),
+                            (behind, 0.0, 0.0)):
+        scene = Scene([item], None, np.zeros((0, 2, 2)), CAR_LIDAR, 0.1, 0, 'car')
+        seen = scene.seen_lengths(0)
+        assert seen.shape == (4,)
+        assert np.all((seen >= low) & (seen <= high)), (item.id, seen)
+
+
 @pytest.mark.parametrize('moving', [False, True], ids=['static sensor', 'moving sensor'])
 def test_pedestrian_scenes_have_people_sized_walkers(moving):
     """random_scene's pedestrian class (SIZE_SETTINGS): 0.25-0.35 m x 0.45-0.60 m objects at

@@ -112,8 +112,11 @@ class Scene:
             return np.zeros((len(np.atleast_1d(t)), 3))
         return self.sensor.poses(t)
 
-    def scan_ranges(self, t0: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """(noisy ranges (R,), hits per object (O,)) of the scan whose first beam is at t0."""
+    def cast(self, t0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                       np.ndarray]:
+        """The noise-free scan whose first beam is at t0, per beam (R): its time [s], origin
+        (R, 2) and angle [rad] in the world frame, range [m] (max_range: no return) and the
+        index of the object it hit in `objects` (-1: a wall or nothing)."""
         lidar = self.lidar
         k = np.arange(lidar.beams)
         times = t0 + k * lidar.time_increment
@@ -127,9 +130,34 @@ class Scene:
         ranges, hit = raycast(pose[:, :2], angles, segments, lidar.max_range)
         owner = np.concatenate([np.full(len(self.walls), -1)]
                                + [np.full(4, i) for i in range(len(self.objects))])
-        hit_owner = np.where(hit >= 0, owner[np.maximum(hit, 0)], -1)
+        return times, pose[:, :2], angles, ranges, np.where(hit >= 0, owner[np.maximum(hit, 0)],
+                                                            -1)
+
+    def scan_ranges(self, t0: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """(noisy ranges (R,), hits per object (O,)) of the scan whose first beam is at t0."""
+        _, _, _, ranges, hit_owner = self.cast(t0)
         hits = np.bincount(hit_owner[hit_owner >= 0], minlength=len(self.objects))
-        return ranges + rng.normal(0.0, lidar.range_sigma, lidar.beams), hits
+        return ranges + rng.normal(0.0, self.lidar.range_sigma, self.lidar.beams), hits
+
+    def seen_lengths(self, index: int) -> np.ndarray:
+        """Per scan (duration x rate_hz), the extent [m] along objects[index]'s own axis of the
+        beams that hit it in the noise-free scan (0 with fewer than 2 such beams): the length of
+        the object that any return bounds (the object's length: both of its ends were hit)."""
+        item = self.objects[index]
+        count = int(round(self.duration * self.lidar.rate_hz))
+        out = np.zeros(count)
+        for k in range(count):
+            times, origins, angles, ranges, owner = self.cast(k / self.lidar.rate_hz)
+            mine = owner == index
+            if mine.sum() < 2:
+                continue
+            points = origins[mine] + ranges[mine, None] * np.c_[np.cos(angles[mine]),
+                                                                np.sin(angles[mine])]
+            states = item.motion.poses(times[mine])
+            along = np.cos(states[:, 2]) * (points[:, 0] - states[:, 0]) \
+                + np.sin(states[:, 2]) * (points[:, 1] - states[:, 1])
+            out[k] = np.ptp(along)
+        return out
 
     def truth(self, t0: float, hits: np.ndarray) -> np.ndarray:
         """OBJECT_DTYPE rows of every object at t0 (in the truth frame)."""
