@@ -9,12 +9,14 @@ position RMSE over the limit, heading and velocity within theirs, no id switch),
 noise-free ray cast (`Scene.seen_lengths`) gives, per scan, the extent along the car's own axis
 of the beams that hit it: the length that returns bound.  Printed per object: its true length,
 the largest such extent, the scans on which both ends were hit (extent within BOTH_ENDS_M of the
-length), and per kind how many of those failures never had both ends hit.  A car whose ends are
-never both hit keeps the prior length (4.5 m for a car) on every scan, so its centre is half the
-length difference off: over the 0.3 m limit for cars under 3.9 m or over 5.1 m (the generator
-draws 3.8-5.2 m).  (A scan on which the car's far end lies at the LiDAR's range limit counts as
-both ends hit here, although the beams past that end end before they reach it; docs/lidar.md
-traces such a car, car_static 2040/1.)
+length), and per kind how many of those failures never had both ends hit.  Only returns are
+counted: on a scan where both ends are not hit, no return bounds the length from above, and the
+tracker keeps the longer of the prior (4.5 m for a car) and the extent its points span unless a
+beam through the box cuts it back (free space, not counted here; docs/lidar.md traces it for
+car_static 2040/1).  With the prior the centre is half the length difference off: over the 0.3 m
+limit for cars under 3.9 m or over 5.1 m (the generator draws 3.8-5.2 m).  (A scan on which the
+car's far end lies at the LiDAR's range limit counts as both ends hit here, although the beams
+past that end end before they reach it: 2040/1 again.)
 """
 from __future__ import annotations
 

@@ -228,7 +228,8 @@ def upper_bound(robot: int, slam_overrides: dict) -> tuple[dict, float, list]:
 
 @lru_cache(maxsize=None)
 def closed_loop(robot: int) -> tuple:
-    """(messages, run, truth) of the bag's closed loop (`jcbb`, offline, the bag's set)."""
+    """(messages, run, truth) of the bag's closed loop (`jcbb`, offline, the bag's set; cached:
+    not to be modified)."""
     bag = ROOT / 'bags' / f'mrclam_robot{robot}'
     messages = read_inputs(bag)
     run = run_offline(messages, 'jcbb', 'node', bag_parameters(bag), bag_slam_parameters(bag))
@@ -286,8 +287,9 @@ def drift_speed(track: np.ndarray, start_s: float, window_s: float) -> Optional[
 
 
 def drift(robot: int, window_s: float) -> dict[str, list[tuple[float, int]]]:
-    """'robot' / 'landmark' (what the landmark was started from) -> (drift speed over its first
-    window_s, pairs after the window) per landmark of the bag's closed loop."""
+    """'robot' / 'landmark' (what the landmark was started from: 'robot' for a CLUTTER
+    origin, another robot's sighting or one the truth does not know) -> (drift speed over its
+    first window_s, pairs after the window) per landmark of the bag's closed loop."""
     messages, run, truth = closed_loop(robot)
     identity = answer_identities(run, truth)
     out: dict[str, list[tuple[float, int]]] = {'robot': [], 'landmark': []}
@@ -356,6 +358,10 @@ def main() -> int:
     for robot in (1, 2):
         for window in DRIFT_WINDOWS_S:
             for kind, rows in drift(robot, window).items():
+                if not rows:
+                    print(f'mrclam_robot{robot}, landmarks started from a {kind}, first '
+                          f'{window:.0f} s: none')
+                    continue
                 speeds = np.array([speed for speed, _ in rows])
                 later = np.array([count for _, count in rows])
                 fast = speeds > DRIFT_CUT_MPS

@@ -203,11 +203,12 @@ def test_mrclam_benchmark_places_paired_sightings_and_fits_their_drift_by_hand()
                                 'bearing': np.array(bearings, np.float32)},
                                Header(stamp=Time(sec=sec), frame_id='base_link'))
         return topics.SENSOR_OBSERVATIONS, cloud
-    messages = [scan(1, [2.0, 1.0], [0.0, math.pi / 2]), ('/odometry', None),
-                scan(2, [4.0], [-math.pi / 2]), scan(3, [1.0], [0.0])]
-    answers = {1 * second: np.array([7, -1]), 2 * second: np.array([7]),
-               3 * second: np.array([7])}
-    poses = {1 * second: np.array([1.0, 2.0, math.pi / 2]), 2 * second: np.array([0.0, 0.0, 0.0])}
+    messages = [scan(1, [2.0, 1.0, 3.0], [0.0, math.pi / 2, 0.5]), ('/odometry', None),
+                scan(2, [4.0], [-math.pi / 2]), scan(3, [1.0], [0.0]), scan(4, [1.0], [0.0])]
+    answers = {1 * second: np.array([7, -1, -2]), 2 * second: np.array([7]),
+               3 * second: np.array([7])}      # scan 3 has no pose, scan 4 no answer
+    poses = {1 * second: np.array([1.0, 2.0, math.pi / 2]), 2 * second: np.array([0.0, 0.0, 0.0]),
+             4 * second: np.array([0.0, 0.0, 0.0])}
     found = paired_positions(messages, answers, poses)
     assert set(found) == {7}
     assert np.allclose(found[7], [[1.0, 1.0, 4.0], [2.0, 0.0, -4.0]], atol=1e-6)
@@ -222,3 +223,32 @@ def test_mrclam_benchmark_places_paired_sightings_and_fits_their_drift_by_hand()
                   np.zeros(2 * DRIFT_MIN_SIGHTINGS), np.zeros(2 * DRIFT_MIN_SIGHTINGS)]
     assert drift_speed(dense, 100.0, 1e9) is None                            # too short a span
     assert drift_speed(track, 200.0, 1e9) is None                            # none in the window
+
+
+def test_mrclam_benchmark_drift_splits_by_origin_and_counts_later_pairs(monkeypatch):
+    """drift: a landmark started from a CLUTTER (robot) sighting goes to 'robot', one from a true
+    landmark to 'landmark'; its speed over [origin, origin + window] and the pairs after it;
+    landmarks with too few sightings or no identity are left out."""
+    import math
+    from types import SimpleNamespace
+    import numpy as np
+    import mrclam_other_robots as bench
+    from data_association_ros.bag.datasets.sequence import CLUTTER
+    second = 1_000_000_000
+    tracks = {
+        1: np.array([[10.0 + t, 0.1 * t, 0.0] for t in range(6)] + [[30.0, 9.0, 9.0]]),
+        2: np.array([[10.0 + t, 0.0, 0.0] for t in range(6)] + [[40.0, 0.0, 0.0]] * 3),
+        3: np.array([[10.0, 0.0, 0.0]]),
+        4: np.array([[10.0 + t, 0.0, 0.0] for t in range(6)]),
+    }
+    identity = {1: (CLUTTER, 9 * second), 2: (5, 9 * second), 3: (6, 9 * second)}
+    monkeypatch.setattr(bench, 'closed_loop', lambda robot: ([], SimpleNamespace(
+        answers={}, poses={}), None))
+    monkeypatch.setattr(bench, 'answer_identities', lambda run, truth: identity)
+    monkeypatch.setattr(bench, 'paired_positions', lambda messages, answers, poses: tracks)
+    found = bench.drift(1, 10.0)
+    assert len(found['robot']) == 1 and len(found['landmark']) == 1
+    speed, later = found['robot'][0]
+    assert math.isclose(speed, 0.1) and later == 1
+    speed, later = found['landmark'][0]
+    assert speed == 0.0 and later == 3

@@ -251,7 +251,8 @@ def test_seen_lengths_of_a_car_driving_away_end_on_and_of_one_crossing_side_on()
     """Scene.seen_lengths, by geometry: a 4 m x 1.8 m car driving away along the sensor's x
     axis shows only its rear face (no extent along its axis); one crossing 10 m ahead at 90 deg
     shows its whole side (its length, to the beam spacing: 0.25 deg at 10 m is 4.4 cm); a scan
-    where the car is out of the field of view gives 0."""
+    where the car is out of the field of view gives 0.  The same with the sensor standing at
+    (5, 5) facing +y (the beams' origins and angles in the world frame)."""
     away = SceneObject(1, 4.0, 1.8, Pieces((12.0, 0.0, 0.0), ((1.0, 5.0, 0.0),)))
     crossing = SceneObject(2, 4.0, 1.8, Pieces((10.0, -1.0, np.pi / 2), ((1.0, 2.0, 0.0),)))
     behind = SceneObject(3, 4.0, 1.8, Pieces((-10.0, 0.0, 0.0), ((1.0, 0.0, 0.0),)))
@@ -261,6 +262,15 @@ def test_seen_lengths_of_a_car_driving_away_end_on_and_of_one_crossing_side_on()
         seen = scene.seen_lengths(0)
         assert seen.shape == (4,)
         assert np.all((seen >= low) & (seen <= high)), (item.id, seen)
+    sensor = Pieces((5.0, 5.0, np.pi / 2), ((1.0, 0.0, 0.0),))
+    away = SceneObject(1, 4.0, 1.8, Pieces((5.0, 17.0, np.pi / 2), ((1.0, 5.0, 0.0),)))
+    crossing = SceneObject(2, 4.0, 1.8, Pieces((6.0, 15.0, np.pi), ((1.0, 2.0, 0.0),)))
+    behind = SceneObject(3, 4.0, 1.8, Pieces((5.0, -5.0, 0.0), ((1.0, 0.0, 0.0),)))
+    for item, low, high in ((away, 0.0, 1e-6), (crossing, 4.0 - 0.1, 4.0 + 1e-6),
+                            (behind, 0.0, 0.0)):
+        scene = Scene([item], sensor, np.zeros((0, 2, 2)), CAR_LIDAR, 0.1, 0, 'car')
+        seen = scene.seen_lengths(0)
+        assert np.all((seen >= low) & (seen <= high)), ('moved sensor', item.id, seen)
 
 
 @pytest.mark.parametrize('moving', [False, True], ids=['static sensor', 'moving sensor'])

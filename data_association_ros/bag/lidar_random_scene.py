@@ -115,8 +115,8 @@ class Scene:
     def cast(self, t0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                        np.ndarray]:
         """The noise-free scan whose first beam is at t0, per beam (R): its time [s], origin
-        (R, 2) and angle [rad] in the world frame, range [m] (max_range: no return) and the
-        index of the object it hit in `objects` (-1: a wall or nothing)."""
+        (R, 2) and angle [rad] in the world frame, range [m] (inf: no return within max_range)
+        and the index of the object it hit in `objects` (-1: a wall or nothing)."""
         lidar = self.lidar
         k = np.arange(lidar.beams)
         times = t0 + k * lidar.time_increment
@@ -141,8 +141,8 @@ class Scene:
 
     def seen_lengths(self, index: int) -> np.ndarray:
         """Per scan (duration x rate_hz), the extent [m] along objects[index]'s own axis of the
-        beams that hit it in the noise-free scan (0 with fewer than 2 such beams): the length of
-        the object that any return bounds (the object's length: both of its ends were hit)."""
+        beams that hit it in the noise-free scan (0 with fewer than 2 such beams): a lower bound
+        on its length that the returns give, equal to the length when both ends were hit."""
         item = self.objects[index]
         count = int(round(self.duration * self.lidar.rate_hz))
         out = np.zeros(count)
