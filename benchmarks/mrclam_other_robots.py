@@ -59,6 +59,7 @@ from data_association_ros.bag.slam_run import (bag_slam_parameters, read_inputs,
                                                run_offline)
 from data_association_ros.bag.slam_scoring import (answer_identities, scan_outcomes,  # noqa: E402
                                                    score_run)
+from data_association_ros.core.models import MODELS  # noqa: E402
 from data_association_ros.pipelines.association import stamp_ns  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -78,6 +79,7 @@ BURST_SCANS = 20
 DRIFT_WINDOWS_S = (10.0, 5.0)
 DRIFT_MIN_SIGHTINGS, DRIFT_MIN_SPAN_S = 4, 4.0
 DRIFT_CUT_MPS = 0.03
+RANGE_BEARING = MODELS['range_bearing']
 
 
 def _folder(robot: int) -> Path:
@@ -257,8 +259,9 @@ def robot_pairs(robot: int) -> tuple[int, int, np.ndarray]:
 def paired_positions(messages: list, answers: dict[int, np.ndarray],
                      poses: dict[int, np.ndarray]) -> dict[int, np.ndarray]:
     """Landmark id -> (n, 3) [t s, x, y] of the range-bearing sightings paired with it, placed
-    in the map frame with the pose (x, y, yaw) of their scan: p + r (cos(yaw + b), sin(yaw +
-    b)).  Scans without an answer or a pose are left out."""
+    in the map frame with the pose (x, y, yaw) of their scan by the range-bearing model's
+    inverse (p + r (cos(yaw + b), sin(yaw + b))).  Scans without an answer or a pose are left
+    out."""
     found: dict[int, list] = {}
     for topic, msg in messages:
         if topic != topics.SENSOR_OBSERVATIONS:
@@ -266,12 +269,12 @@ def paired_positions(messages: list, answers: dict[int, np.ndarray],
         stamp = stamp_ns(msg.header)
         if stamp not in answers or stamp not in poses:
             continue
-        points, pose = cloud_to_array(msg), poses[stamp]
-        for answer, r, b in zip(answers[stamp], points['range'], points['bearing']):
+        points = cloud_to_array(msg)
+        positions, _ = RANGE_BEARING.in_map(
+            np.c_[points['range'], points['bearing']].astype(float), None, poses[stamp], None)
+        for answer, (x, y) in zip(answers[stamp], positions):
             if answer >= 0:
-                angle = pose[2] + b
-                found.setdefault(int(answer), []).append(
-                    (stamp / 1e9, pose[0] + r * np.cos(angle), pose[1] + r * np.sin(angle)))
+                found.setdefault(int(answer), []).append((stamp / 1e9, x, y))
     return {landmark: np.array(rows) for landmark, rows in found.items()}
 
 
