@@ -57,6 +57,14 @@ def range_max_of(msg: LaserScan) -> Optional[float]:
     return value if np.isfinite(value) and value > 0 else None
 
 
+def full_turn_of(msg: LaserScan) -> bool:
+    """Whether the scan's beams go all the way round, its last beam next to its first (a 360
+    deg scan): len(ranges) |angle_increment| >= 2 pi - |angle_increment| / 2."""
+    step = abs(float(msg.angle_increment))
+    return bool(np.isfinite(step) and step > 0 and len(msg.ranges) > 1
+                and len(msg.ranges) * step >= 2 * np.pi - step / 2)
+
+
 def points_from_cloud(msg: PointCloud2) -> np.ndarray:
     """(K, 2) points from the `x`, `y` fields of a cloud in scan order (z and others ignored;
     non-finite values stay, meaning no return).  InvalidInputError without x or y; layout

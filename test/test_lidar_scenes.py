@@ -311,8 +311,10 @@ def test_pedestrian_scenes_have_people_sized_walkers(moving):
 def test_da_lidar_eval_lists_every_scene_kind():
     """--help's kinds (lidar_eval.SCENE_KINDS, kept without importing the generator) are
     lidar_random_scene.KINDS."""
-    from data_association_ros.bag.lidar_eval import SCENE_KINDS
+    from data_association_ros.bag.lidar_eval import SCENE_KINDS, SCENE_LIDARS
+    from data_association_ros.bag.lidar_random_scene import OTHER_LIDARS
     assert SCENE_KINDS == tuple(KINDS)
+    assert SCENE_LIDARS == tuple(OTHER_LIDARS)
 
 
 def test_a_pedestrian_near_the_sensor_is_tracked():

@@ -4,7 +4,7 @@ scored against the truth.
     da_lidar_eval [BAG] [--rows default,nearest,polar,...] [--first 0] [--repeat 1] [--live]
                   [--paced] [-p name=value ...]
     da_lidar_eval --scenes car_static,car_moving,f1tenth_static,f1tenth_moving,race
-                  [--seeds 100-129] [-p name=value ...]
+                  [--seeds 100-129] [--lidar 360_10hz] [-p name=value ...]
 
 Runs the core tracker offline over /scan (sensor_msgs/LaserScan) with the bag's /odometry if any
 (pipelines.lidar_tracking), once per row (a row = the default parameters with some changed), and
@@ -74,7 +74,8 @@ class Scan:
     """One scan: time [s] (its header stamp), points (K, 2) in the sensor frame, truth
     (structured: id, x, y, yaw, vx, vy, ... [, visible]), time between beams [s], the odometry
     (time [s], pose (3,), frame) that arrived since the previous scan, the scan's frame, the
-    sensor's range_max [m] (None: unknown)."""
+    sensor's range_max [m] (None: unknown), whether it is a 360 deg scan (msg_adapters.lidar.
+    full_turn_of)."""
 
     time: float
     points: np.ndarray
@@ -83,6 +84,7 @@ class Scan:
     odometry: list = field(default_factory=list)
     frame: str = 'laser'
     max_range: Optional[float] = None
+    full_turn: bool = False
 
 
 @dataclass
@@ -133,10 +135,11 @@ def scans_from_messages(messages: Iterable[tuple[str, object, int]]) -> list[Sca
     odometry: list = []
     for topic, msg, _ in messages:
         if topic == SCAN:
-            from msg_adapters.lidar import points_from_scan, range_max_of
+            from msg_adapters.lidar import full_turn_of, points_from_scan, range_max_of
             scans[stamp_ns(msg)] = Scan(stamp_seconds(msg), points_from_scan(msg), None,
                                         float(msg.time_increment), odometry,
-                                        msg.header.frame_id, range_max_of(msg))
+                                        msg.header.frame_id, range_max_of(msg),
+                                        full_turn_of(msg))
             odometry = []
         elif topic == OBJECTS:
             truths[stamp_ns(msg)] = cloud_to_array(msg)
@@ -174,7 +177,7 @@ def run_offline(scans: Sequence[Scan], config: TrackerConfig) -> tuple[list[Esti
             tracking.add_odometry(time_s, pose, frame)
         started = time.perf_counter()
         reported = tracking.step(scan.points, scan.time, scan.time_increment, scan.frame,
-                                 scan.max_range)
+                                 scan.max_range, scan.full_turn)
         elapsed.append((time.perf_counter() - started) * 1000.0)
         estimates.append(Estimate(np.array([t.id for t in reported], dtype=int),
                                   np.array([t.filter.x for t in reported]).reshape(-1, 6)))
@@ -371,14 +374,24 @@ SCENE_KINDS = ('car_static', 'car_moving', 'f1tenth_static', 'f1tenth_moving',
 its message packages)."""
 
 
-def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str]) -> int:
-    """--scenes: the summary table over the seeds of each kind (lidar_seeds)."""
-    from .lidar_random_scene import KINDS
+SCENE_LIDARS = ('360_10hz', '270_25hz', '360_10hz_coarse', '270_40hz_coarse')
+"""The keys of lidar_random_scene.OTHER_LIDARS (as SCENE_KINDS)."""
+
+
+def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str],
+                 lidar_name: str = '') -> int:
+    """--scenes: the summary table over the seeds of each kind (lidar_seeds), seen by the
+    LiDAR `lidar_name` of lidar_random_scene.OTHER_LIDARS when given."""
+    from .lidar_random_scene import KINDS, OTHER_LIDARS
     from .lidar_seeds import SUMMARY_HEADER, evaluate_kind, parse_seeds, summary_row, \
         worst_objects
     unknown = [k for k in kinds if k not in KINDS]
     if unknown:
         print(f'da_lidar_eval: unknown scene kind {unknown[0]!r} (valid: {", ".join(KINDS)})',
+              file=sys.stderr)
+        return 2
+    if lidar_name and lidar_name not in OTHER_LIDARS:
+        print(f'da_lidar_eval: unknown LiDAR {lidar_name!r} (valid: {", ".join(OTHER_LIDARS)})',
               file=sys.stderr)
         return 2
     try:
@@ -390,7 +403,8 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
     rows, notes = [], []
     for kind in kinds:
         result = evaluate_kind(kind, seeds, base,
-                               progress=lambda text: print(text, file=sys.stderr, flush=True))
+                               progress=lambda text: print(text, file=sys.stderr, flush=True),
+                               lidar=OTHER_LIDARS.get(lidar_name))
         rows.append(summary_row(result, seeds))
         notes.extend(worst_objects(result))
     print(SUMMARY_HEADER)
@@ -421,6 +435,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument('--seeds', default='100-129',
                         help='seeds of the generated scenes: A-B or a,b,c (default 100-129; the '
                         'tracker was tuned on 0-29)')
+    parser.add_argument('--lidar', default='', choices=('',) + SCENE_LIDARS,
+                        help='--scenes seen by another LiDAR than their own (40 Hz, 270 deg, '
+                        '0.25 deg): 360_10hz (0.2 deg, 60 m), 270_25hz (0.5 deg, 20 m), '
+                        '360_10hz_coarse (0.5 deg, 12 m), 270_40hz_coarse (0.5 deg, 10 m)')
     parser.add_argument('--paced', action='store_true',
                         help='also play the bag through lidar_tracker_node at its own rate '
                         '(real time) and report the node\'s step times')
@@ -432,7 +450,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if unknown:
         parser.error(f'unknown row {unknown[0]!r} (valid: {", ".join(ROWS)})')
     if args.scenes:
-        return scene_report(args.scenes.split(','), args.seeds, args.parameter)
+        return scene_report(args.scenes.split(','), args.seeds, args.parameter, args.lidar)
     try:
         scans = read_scans(args.bag)
         base = TrackerConfig().with_values(**parse_values(args.parameter))

@@ -75,6 +75,19 @@ class Lidar:
 
 CAR_LIDAR = Lidar()
 F1TENTH_LIDAR = Lidar(max_range=10.0, range_sigma=0.01)
+OTHER_LIDARS = {
+    '360_10hz': Lidar(10.0, float(-np.pi), float(np.deg2rad(0.2)), 1800, 60.0, 0.03, 1800),
+    '270_25hz': Lidar(25.0, float(np.deg2rad(-135.0)), float(np.deg2rad(0.5)), 541, 20.0, 0.03,
+                      720),
+    '360_10hz_coarse': Lidar(10.0, float(-np.pi), float(np.deg2rad(0.5)), 720, 12.0, 0.02, 720),
+    '270_40hz_coarse': Lidar(40.0, float(np.deg2rad(-135.0)), float(np.deg2rad(0.5)), 541, 10.0,
+                             0.01, 720),
+}
+"""LiDARs other than the scenes' own (da_lidar_eval --scenes ... --lidar NAME): a full turn at
+10 Hz, 0.2 deg, 60 m, 3 cm (a spinning LiDAR's ring, or a 360 deg scanner); 270 deg at 25 Hz,
+0.5 deg, 20 m, 3 cm (a safety-scanner class); a full turn at 10 Hz, 0.5 deg, 12 m, 2 cm (a
+low-cost 360 deg scanner); 270 deg at 40 Hz, 0.5 deg, 10 m, 1 cm.  The scenes' own: CAR_LIDAR
+(40 Hz, 270 deg, 0.25 deg, 30 m, 2 cm) and F1TENTH_LIDAR (the same to 10 m, 1 cm)."""
 
 
 @dataclass(frozen=True)

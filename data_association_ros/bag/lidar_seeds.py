@@ -9,7 +9,7 @@ docs/lidar.md uses others (100-129).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Optional, Sequence
 
 import numpy as np
@@ -17,7 +17,7 @@ import numpy as np
 from ..core.lidar import TrackerConfig
 from ..core.lidar.parameters import PRESETS
 from .lidar_eval import ObjectScore, run_offline, scans_from_messages, score
-from .lidar_random_scene import KINDS
+from .lidar_random_scene import KINDS, Lidar
 
 MIN_SCORED_SCANS = 10
 TUNING_SEEDS = range(0, 30)
@@ -47,12 +47,17 @@ def configuration(kind: str, base: TrackerConfig) -> TrackerConfig:
 
 
 def evaluate_kind(kind: str, seeds: Sequence[int], base: TrackerConfig,
-                  progress: Optional[Callable[[str], None]] = None) -> KindResult:
-    """Every seed's scene of `kind` through the core tracker, scored."""
+                  progress: Optional[Callable[[str], None]] = None,
+                  lidar: Optional[Lidar] = None) -> KindResult:
+    """Every seed's scene of `kind` through the core tracker, scored; seen by `lidar` instead
+    of the scene's own LiDAR when given (lidar_random_scene.OTHER_LIDARS)."""
     config = configuration(kind, base)
     objects, elapsed = [], []
     for seed in seeds:
-        scans = scans_from_messages(KINDS[kind](seed).messages())
+        scene = KINDS[kind](seed)
+        if lidar is not None:
+            scene = replace(scene, lidar=lidar)
+        scans = scans_from_messages(scene.messages())
         estimates, times = run_offline(scans, config)
         elapsed.append(times)
         for object_id, result in sorted(score(scans, estimates).items()):

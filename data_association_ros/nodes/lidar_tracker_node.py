@@ -6,7 +6,9 @@ core.lidar.LidarObjectTracker (clusters, coarse + fine association, rigid correc
 update).  With `odometry` (nav_msgs/Odometry: the sensor's pose; the scan frame is taken to be its
 child frame) the tracks live in the odometry's frame and each scan point is moved there with the
 sensor pose at its beam's time (pipelines.lidar_tracking: ego motion between scans and, with a
-LaserScan's time_increment, within one); without odometry in the scan's frame.  Publishes, with
+LaserScan's time_increment, within one); without odometry in the scan's frame.  A LaserScan
+whose beams go all the way round (msg_adapters.lidar.full_turn_of) is a full turn: an object
+across its first and last beams is one object.  Publishes, with
 the scan's stamp and the tracks' frame: `tracks` (PointCloud2, msg_adapters.lidar
 TRACK_DTYPE: the reported tracks), `track_boundaries` (PointCloud2: id, x, y of each reported
 track's visible boundary points) and, when publish_markers, `track_markers` (MarkerArray);
@@ -30,8 +32,8 @@ from std_msgs.msg import Header
 from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import PointCloudFormatError, diagnostics_message, pose_from_odometry
-from msg_adapters.lidar import (boundaries_cloud, points_from_cloud, points_from_scan,
-                                range_max_of, track_markers, tracks_cloud)
+from msg_adapters.lidar import (boundaries_cloud, full_turn_of, points_from_cloud,
+                                points_from_scan, range_max_of, track_markers, tracks_cloud)
 
 from ..core import InvalidInputError
 from ..core.lidar import PARAMETERS, TrackerConfig
@@ -123,15 +125,17 @@ class LidarTrackerNode(ParameterizedNode):
     def _on_scan(self, msg: LaserScan) -> None:
         end = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9 + max(
             msg.time_increment, 0.0) * max(len(msg.ranges) - 1, 0)
-        self._wait_or_process(msg.header, lambda: (points_from_scan(msg), range_max_of(msg)),
+        self._wait_or_process(msg.header, lambda: (points_from_scan(msg), range_max_of(msg),
+                                                   full_turn_of(msg)),
                               msg.time_increment, end)
 
     def _on_points(self, msg: PointCloud2) -> None:
-        self._wait_or_process(msg.header, lambda: (points_from_cloud(msg), None), 0.0,
+        self._wait_or_process(msg.header, lambda: (points_from_cloud(msg), None, False), 0.0,
                               msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
 
     def _wait_or_process(self, header, convert, time_increment: float, end: float) -> None:
-        """Process the scan (`convert`: its points and range_max, or None), or, when odometry is
+        """Process the scan (`convert`: its points, range_max or None, and whether it is a 360
+        deg scan), or, when odometry is
         used and has not reached the scan's last beam time `end` [s] yet, keep it until it has
         (at most MAX_WAITING_SCANS kept)."""
         if self.waiting or (len(self.tracking.odometry) and not self.tracking.covers(end)):
@@ -144,7 +148,7 @@ class LidarTrackerNode(ParameterizedNode):
     def _process(self, header, convert, time_increment: float = 0.0) -> None:
         stamp = header.stamp.sec + header.stamp.nanosec * 1e-9
         try:
-            points, max_range = convert()  # range_max: None for a cloud
+            points, max_range, full_turn = convert()  # range_max: None for a cloud
             last = self.tracker.time
             if last is not None and stamp < last - RESTART_AFTER_S:
                 self.get_logger().warning(f'scan {last - stamp:.2f} s older than the last: '
@@ -152,7 +156,7 @@ class LidarTrackerNode(ParameterizedNode):
                 self.tracking.reset()
             started = time.perf_counter()
             tracks = self.tracking.step(points, stamp, time_increment, header.frame_id,
-                                        max_range)
+                                        max_range, full_turn)
             self.last_step_ms = (time.perf_counter() - started) * 1e3
             self.step_ms.append(self.last_step_ms)
             self.scans += 1

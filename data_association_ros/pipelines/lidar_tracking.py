@@ -110,10 +110,12 @@ class LidarTracking:
         self.odometry.clear()
 
     def step(self, points: np.ndarray, time: float, time_increment: float = 0.0,
-             scan_frame: str = 'laser', max_range: Optional[float] = None) -> list:
+             scan_frame: str = 'laser', max_range: Optional[float] = None,
+             full_turn: bool = False) -> list:
         """Reported tracks after the scan stamped `time` [s] with points (K, 2) in the sensor
         frame in beam order (non-finite: no return), the sensor's range_max `max_range` [m]
-        (None: unknown).  InvalidInputError when the odometry does
+        (None: unknown); full_turn: a 360 deg scan, its last beam next to its first
+        (LidarObjectTracker.step).  InvalidInputError when the odometry does
         not cover the scan, or the time is not after the previous scan's."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         if not np.isfinite(time_increment) or time_increment < 0:
@@ -121,7 +123,8 @@ class LidarTracking:
         offsets = np.arange(len(points)) * time_increment
         if not len(self.odometry):  # the tracker finds the beam directions itself
             self.frame = scan_frame
-            return self.tracker.step(points, time, offsets=offsets, max_range=max_range)
+            return self.tracker.step(points, time, offsets=offsets, max_range=max_range,
+                                     full_turn=full_turn)
         poses = self.odometry.at(time + (offsets if len(points) else np.zeros(1)),
                                  self.max_extrapolation)
         world = to_frame(points, poses) if len(points) else points
@@ -133,4 +136,5 @@ class LidarTracking:
         sensor = self.odometry.at(np.array([time]), self.max_extrapolation)[0]
         return self.tracker.step(world, time, sensor=sensor[:2], offsets=offsets,
                                  directions=directions, max_range=max_range,
-                                 origins=poses[:, :2] if len(points) else None)
+                                 origins=poses[:, :2] if len(points) else None,
+                                 full_turn=full_turn)

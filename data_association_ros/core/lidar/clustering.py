@@ -139,8 +139,8 @@ def _continues(points: np.ndarray, index: np.ndarray, tolerance: float) -> np.nd
 
 
 def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
-                 sensor: np.ndarray = np.zeros(2), max_range: Optional[float] = None
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 sensor: np.ndarray = np.zeros(2), max_range: Optional[float] = None,
+                 full_turn: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(first and last point index (C, 2), which end is an object edge (C, 2) bool, which end is
     occluded (C, 2) bool) of clusters 0..C-1 of `labels` (from cluster_consecutive on
     scan-ordered points seen from `sensor` (2,), default the origin).
@@ -153,7 +153,8 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
     between the end's last two returns, would pass the sensor's `max_range` at the next beam:
     r_end + 2 |r_end - r_inner| + jump > max_range (the object may go on beyond the range or
     end there: an object leaving the range would otherwise seem to end where the range does
-    and be pulled back)."""
+    and be pulled back).  `full_turn`: the scan's last beam is followed by its first (a 360 deg
+    scan), so no end is cut by the field of view: the neighbour of the first beam is the last."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     count = int(labels.max()) + 1 if labels.size else 0
     index = np.arange(len(labels))
@@ -164,6 +165,8 @@ def cluster_ends(points: np.ndarray, labels: np.ndarray, jump: float,
     np.maximum.at(last, labels[inside], index[inside])
     ends = np.column_stack([first, last]).reshape(count, 2)
     neighbours = ends + [-1, 1]
+    if full_turn:
+        neighbours %= max(len(labels), 1)
     in_scan = (neighbours >= 0) & (neighbours < len(labels))
     clipped = np.clip(neighbours, 0, max(len(labels) - 1, 0))
     with np.errstate(invalid='ignore'):
@@ -200,3 +203,24 @@ def along_across(offset: np.ndarray, direction: np.ndarray) -> tuple:
     along = np.sum(offset * direction, axis=-1)
     across = np.abs(offset[..., 0] * direction[..., 1] - offset[..., 1] * direction[..., 0])
     return along, across
+
+
+def turn_start(points: np.ndarray, longest_step: float = np.inf) -> int:
+    """The beam at which to start a full-turn (360 deg) scan of `points` (K, 2, beam order,
+    non-finite: no return) so that no cluster of cluster_consecutive runs over its last and
+    first beams: 0 when beams K - 1 and 0 are already apart (either without a return, or
+    farther apart than `longest_step` [m], which no cluster joins); else the first beam
+    after a beam without a return; else the beam after the longest step between neighbours
+    (a scan with returns all round, e.g. in a room)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(points) < 2:
+        return 0
+    valid = np.all(np.isfinite(points), axis=1)
+    steps = np.hypot(*(points - np.roll(points, 1, axis=0)).T)  # step into beam k from k - 1
+    if not (valid[-1] and valid[0]) or steps[0] > longest_step:
+        return 0
+    after_missing = np.flatnonzero(valid & ~np.roll(valid, 1))
+    if after_missing.size:
+        return int(after_missing[0])
+    return int(np.argmax(steps))
+

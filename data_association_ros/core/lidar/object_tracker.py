@@ -97,7 +97,7 @@ from ..tracking.interacting_models import InteractingModels
 from ..tracking.kalman import KalmanFilter
 from ..types import Landmarks, Observations
 from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigid_correction)
-from .clustering import cluster_consecutive, cluster_ends, on_face
+from .clustering import cluster_consecutive, cluster_ends, on_face, turn_start
 from .fine import boundary_covariance, match
 from .free_space import FACE_POINTS, beams, blocked_share, carve, face_end_limit, near
 from .measurement import (fictitious_measurement, lateral_velocity, measurement_covariance,
@@ -243,6 +243,7 @@ class LidarObjectTracker:
         self.sensor = np.zeros(2)
         self._next_id = 1
         self._range_known = False
+        self._full_turn = False
 
     @property
     def _margin(self) -> float:
@@ -279,7 +280,8 @@ class LidarObjectTracker:
              offsets: Optional[np.ndarray] = None,
              directions: Optional[np.ndarray] = None,
              max_range: Optional[float] = None,
-             origins: Optional[np.ndarray] = None) -> list[ObjectTrack]:
+             origins: Optional[np.ndarray] = None,
+             full_turn: bool = False) -> list[ObjectTrack]:
         """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
         tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
         [s] after `time` (default 0; an object's points are moved back by its predicted
@@ -288,7 +290,10 @@ class LidarObjectTracker:
         nothing; a beam with a return runs from the sensor to its point), the sensor's
         range_max `max_range` [m] (None: unknown; a beam without a return is then free up to
         the scan's farthest return only, free_space.beams), origins (K, 2): where the sensor
-        was when it took beam k (a moving sensor; default: `sensor` for every beam).
+        was when it took beam k (a moving sensor; default: `sensor` for every beam);
+        full_turn: the last beam is followed by the first (a 360 deg scan): the beams are
+        taken from clustering.turn_start on, so that an object behind the sensor, where the
+        scan starts, is one cluster, and no cluster end counts as cut by the field of view.
         Raises InvalidInputError when time is not after the previous scan's.  Returns the
         reported tracks."""
         if not np.isfinite(time) or (self.time is not None and time <= self.time):
@@ -308,6 +313,15 @@ class LidarObjectTracker:
                                         f'points\' {points.shape}')
         self._origins = np.broadcast_to(self.sensor, points.shape) if origins is None else \
             np.asarray(origins, float).reshape(points.shape)
+        self._full_turn, self._first_beam = bool(full_turn), 0
+        if self._full_turn:  # each beam keeps its own time, origin and direction
+            start = turn_start(points, self._largest)
+            self._first_beam = (len(points) - start) % max(len(points), 1)
+            order = np.roll(np.arange(len(points)), -start)
+            points, self._offsets, self._origins = \
+                points[order], self._offsets[order], self._origins[order]
+            if directions is not None:
+                directions = directions[order]
         self._rays = beams(points, self._origins, directions, self._margin, max_range)
         self._range_known = max_range is not None and bool(np.isfinite(max_range))
         dt = None if self.time is None else time - self.time
@@ -321,7 +335,7 @@ class LidarObjectTracker:
         labels = split_shared(points, labels, self._claims(before), self._offsets,
                               config.min_pairs)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
-                                             max_range)
+                                             max_range, self._full_turn)
         self._occluded = occluded
         count = len(ends)
         members = self._coarse(points, labels, count, before)
@@ -339,7 +353,8 @@ class LidarObjectTracker:
                 track.updated = time
                 track.last = track.filter.x[:3].copy()
             elif track.hits == 1 and len(clusters) == 1:  # never corrected: two-point start
-                self._restart(track, points[labels == clusters[0]], occluded[clusters[0]], time)
+                piece, ends_hidden = self._one_sweep(labels, clusters[0], occluded)
+                self._restart(track, points[piece], ends_hidden, time)
             if track.updated == time or not coasting:
                 free[clusters] = False
             elif self._established(track):
@@ -357,16 +372,38 @@ class LidarObjectTracker:
             member = labels == cluster
             if np.count_nonzero(member) >= config.min_pairs \
                     and not occluded[cluster].all():  # maybe background between two shadows
+                member, ends_hidden = self._one_sweep(labels, cluster, occluded)
                 late = float(np.mean(self._offsets[member]))
-                started = self._start(points[member], occluded[cluster], time, late)
+                started = self._start(points[member], ends_hidden, time, late)
                 old = None if started is None else \
                     self._found_again(started, time, before, lost.get(cluster))
                 if old is not None:
-                    self._hand_over(old, started, late, points[member], occluded[cluster])
+                    self._hand_over(old, started, late, points[member], ends_hidden)
         reported = self.reported()
         for track in reported:
             track.published = True
         return reported
+
+    def _one_sweep(self, labels: np.ndarray, cluster: int, occluded: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """(member mask (K,), its ends' occluded flags (2,)) of the returns of `cluster` that a
+        new rectangle is fitted to.  In a full-turn scan a cluster over the beam the sensor
+        took first (an object behind the sensor) holds returns taken a whole scan period
+        apart, between which a moving object moved (10 m/s at 10 Hz: 1 m); a fit to both
+        would be that much too long, and nothing cuts an extent seen end-on back later.  Such
+        a cluster gives the side with more returns, the end at that beam counted as occluded
+        (completed by the priors); else the whole cluster with `occluded[cluster]`."""
+        member = labels == cluster
+        hidden = occluded[cluster].copy()
+        first = self._first_beam
+        if first and member[first - 1] and member[first]:
+            early = member & (np.arange(len(labels)) >= first)  # taken after the stamp
+            late = member & ~early  # at the scan's end
+            if np.count_nonzero(early) >= np.count_nonzero(late):
+                member, hidden[0] = early, True
+            else:
+                member, hidden[1] = late, True
+        return member, hidden
 
     def _claims(self, before: Optional[float]) -> Boxes:
         """The predicted rectangles that may split a shared cluster (split_shared): of the
@@ -762,6 +799,8 @@ class LidarObjectTracker:
                 continue
             for outer, face in ((first - 1, member[:FACE_POINTS][::-1]),
                                 (last + 1, member[-FACE_POINTS:])):
+                if self._full_turn:
+                    outer %= len(labels)
                 if 0 <= outer < len(labels) and labels[outer] not in clusters:
                     result.append((points[face], int(outer)))
         return result
