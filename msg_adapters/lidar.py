@@ -59,10 +59,13 @@ def range_max_of(msg: LaserScan) -> Optional[float]:
 
 def full_turn_of(msg: LaserScan) -> bool:
     """Whether the scan's beams go all the way round, its last beam next to its first (a 360
-    deg scan): len(ranges) |angle_increment| >= 2 pi - |angle_increment| / 2."""
+    deg scan): 2 pi - |angle_increment| / 2 <= len(ranges) |angle_increment| <= 2 pi + 3/2
+    |angle_increment| (the first beam may be repeated at the end; a scan going farther round
+    overlaps itself and is not one)."""
     step = abs(float(msg.angle_increment))
+    span = len(msg.ranges) * step
     return bool(np.isfinite(step) and step > 0 and len(msg.ranges) > 1
-                and len(msg.ranges) * step >= 2 * np.pi - step / 2)
+                and 2 * np.pi - step / 2 <= span <= 2 * np.pi + 1.5 * step)
 
 
 def points_from_cloud(msg: PointCloud2) -> np.ndarray:

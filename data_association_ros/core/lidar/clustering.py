@@ -210,8 +210,9 @@ def turn_start(points: np.ndarray, longest_step: float = np.inf) -> int:
     non-finite: no return) so that no cluster of cluster_consecutive runs over its last and
     first beams: 0 when beams K - 1 and 0 are already apart (either without a return, or
     farther apart than `longest_step` [m], which no cluster joins); else the first beam
-    after a beam without a return; else the beam after the longest step between neighbours
-    (a scan with returns all round, e.g. in a room)."""
+    after a beam without a return (a missing return always ends a cluster); else, with
+    returns all round (e.g. in a room), the beam after the longest step between neighbours,
+    which ends a cluster only when it is longer than the gap and not joined as one face."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if len(points) < 2:
         return 0

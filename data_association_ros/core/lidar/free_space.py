@@ -27,7 +27,10 @@ def beam_directions(points: np.ndarray) -> np.ndarray:
     """Unit beam directions (K, 2) of a scan's points (K, 2) in the sensor frame, in beam order
     (non-finite: no return).  A beam without a return gets the direction of its index on the
     line through the first and last return's angles when every return lies on it
-    (LINEAR_TOLERANCE: evenly spaced beams), else NaN (nothing is known about it)."""
+    (LINEAR_TOLERANCE: evenly spaced beams), else NaN (nothing is known about it).  The
+    returns' angles are unwrapped along that line: each one to the turn nearest to where the
+    median step between neighbouring beams puts it, so that returns more than half a turn of
+    missing beams apart (a 360 deg scan with returns only near its two ends) stay on it."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     directions = np.full(points.shape, np.nan)
     valid = np.all(np.isfinite(points), axis=1) & (np.hypot(points[:, 0], points[:, 1]) > 0)
@@ -36,7 +39,13 @@ def beam_directions(points: np.ndarray) -> np.ndarray:
     directions[valid] = np.column_stack([np.cos(angles), np.sin(angles)])
     if len(index) < 3 or len(index) == len(points):  # two returns prove no spacing
         return directions
-    angles = np.unwrap(angles)
+    neighbours = np.flatnonzero(np.diff(index) == 1)
+    if neighbours.size:  # each angle to the turn nearest to the median step's prediction
+        step = float(np.median(np.angle(np.exp(1j * np.diff(angles)[neighbours]))))
+        predicted = angles[0] + step * (index - index[0])
+        angles = predicted + np.angle(np.exp(1j * (angles - predicted)))
+    else:
+        angles = np.unwrap(angles)
     slope = (angles[-1] - angles[0]) / (index[-1] - index[0])  # the line through the end beams
     intercept = angles[0] - slope * index[0]
     if np.max(np.abs(angles - (slope * index + intercept))) > LINEAR_TOLERANCE * abs(slope):

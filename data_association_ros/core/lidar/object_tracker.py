@@ -99,7 +99,8 @@ from ..types import Landmarks, Observations
 from .alignment import (J, Correction, EdgePoint, point_to_line_correction, rigid_correction)
 from .clustering import cluster_consecutive, cluster_ends, on_face, turn_start
 from .fine import boundary_covariance, match
-from .free_space import FACE_POINTS, beams, blocked_share, carve, face_end_limit, near
+from .free_space import (FACE_POINTS, beam_directions, beams, blocked_share, carve,
+                         face_end_limit, near)
 from .measurement import (fictitious_measurement, lateral_velocity, measurement_covariance,
                           process_noise, turning_prediction)
 from .parameters import SIZE_CLASSES, TrackerConfig
@@ -315,13 +316,13 @@ class LidarObjectTracker:
             np.asarray(origins, float).reshape(points.shape)
         self._full_turn, self._first_beam = bool(full_turn), 0
         if self._full_turn:  # each beam keeps its own time, origin and direction
+            if directions is None:  # from the beam order (free_space.beams), before the turn
+                directions = beam_directions(points - self._origins)
             start = turn_start(points, self._largest)
             self._first_beam = (len(points) - start) % max(len(points), 1)
             order = np.roll(np.arange(len(points)), -start)
-            points, self._offsets, self._origins = \
-                points[order], self._offsets[order], self._origins[order]
-            if directions is not None:
-                directions = directions[order]
+            points, self._offsets, self._origins, directions = \
+                points[order], self._offsets[order], self._origins[order], directions[order]
         self._rays = beams(points, self._origins, directions, self._margin, max_range)
         self._range_known = max_range is not None and bool(np.isfinite(max_range))
         dt = None if self.time is None else time - self.time
@@ -369,10 +370,9 @@ class LidarObjectTracker:
         self._continue_confirmed(time)
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
-            member = labels == cluster
+            member, ends_hidden = self._one_sweep(labels, cluster, occluded)
             if np.count_nonzero(member) >= config.min_pairs \
                     and not occluded[cluster].all():  # maybe background between two shadows
-                member, ends_hidden = self._one_sweep(labels, cluster, occluded)
                 late = float(np.mean(self._offsets[member]))
                 started = self._start(points[member], ends_hidden, time, late)
                 old = None if started is None else \
@@ -383,6 +383,14 @@ class LidarObjectTracker:
         for track in reported:
             track.published = True
         return reported
+
+    def _beyond(self, index: int, count: int) -> Optional[int]:
+        """The beam `index` next to a cluster end (one before its first or after its last) of
+        a scan of `count` beams: itself inside the scan, round the seam in a full turn, else
+        None (outside the field of view)."""
+        if self._full_turn and count:
+            return index % count
+        return index if 0 <= index < count else None
 
     def _one_sweep(self, labels: np.ndarray, cluster: int, occluded: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -667,7 +675,8 @@ class LidarObjectTracker:
                     (last, last - 1, last + 1, edges[cluster, 1])):
                 if not flagged:
                     continue
-                inside = 0 <= outer < len(labels)
+                outer = self._beyond(outer, len(labels))
+                inside = outer is not None
                 if inside and labels[outer] in clusters:
                     continue
                 step = points[end] - points[inner]
@@ -799,9 +808,8 @@ class LidarObjectTracker:
                 continue
             for outer, face in ((first - 1, member[:FACE_POINTS][::-1]),
                                 (last + 1, member[-FACE_POINTS:])):
-                if self._full_turn:
-                    outer %= len(labels)
-                if 0 <= outer < len(labels) and labels[outer] not in clusters:
+                outer = self._beyond(outer, len(labels))
+                if outer is not None and labels[outer] not in clusters:
                     result.append((points[face], int(outer)))
         return result
 
