@@ -66,12 +66,18 @@ def test_full_turn_of_by_hand():
     assert not full_turn_of(scan(360, 0.0))
 
 
-def parked_car_scans(bearing: float, distance: float = 10.0):
-    """2 s of 360 deg 10 Hz scans of a 4.5 m x 1.8 m car parked side-on at `bearing` [rad]."""
+def parked_car_scene(bearing: float, duration: float = 2.0, distance: float = 10.0) -> Scene:
+    """`duration` s of 360 deg 10 Hz scans of a 4.5 m x 1.8 m car parked side-on `distance` m
+    away at `bearing` [rad]."""
     centre = distance * np.array([np.cos(bearing), np.sin(bearing)])
     car = SceneObject(1, 4.5, 1.8, Pieces((*centre, bearing + np.pi / 2), ((3.0, 0.0, 0.0),)))
-    scene = Scene([car], None, np.zeros((0, 2, 2)), SPIN, 2.0, 0, 'car')
-    return scans_from_messages(scene.messages()), centre
+    return Scene([car], None, np.zeros((0, 2, 2)), SPIN, duration, 0, 'car')
+
+
+def parked_car_scans(bearing: float):
+    """The scans of parked_car_scene(bearing), and the car's centre (2,)."""
+    scene = parked_car_scene(bearing)
+    return scans_from_messages(scene.messages()), scene.objects[0].motion.poses(np.zeros(1))[0, :2]
 
 
 @settings(max_examples=12, deadline=None)

@@ -213,11 +213,8 @@ def test_a_360_degree_scan_tracks_a_car_behind_the_sensor_as_one(graph):
     scan's first beam: the node reads the full turn from the message (full_turn_of) and
     reports one track, as the core does offline (test_lidar_full_turn; not knowing the turn
     gives two)."""
-    from test_lidar_full_turn import SPIN
-    from data_association_ros.bag.lidar_motion import Pieces
-    from data_association_ros.bag.lidar_random_scene import Scene, SceneObject
-    scene = Scene([SceneObject(1, 4.5, 1.8, Pieces((-10.0, 0.0, -np.pi / 2), ((2.0, 0.0, 0.0),)))],
-                  None, np.zeros((0, 2, 2)), SPIN, 1.5, 0, 'car')
+    from test_lidar_full_turn import parked_car_scene
+    scene = parked_car_scene(np.pi, duration=1.5)  # at (-10, 0) m
     from rclpy.serialization import deserialize_message, serialize_message
     # as the node receives them: the float32 fields rounded (the first report's velocity
     # differs by 5e-4 m/s otherwise)
