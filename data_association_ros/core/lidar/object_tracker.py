@@ -353,7 +353,7 @@ class LidarObjectTracker:
                 track.hits += 1
                 track.updated = time
                 track.last = track.filter.x[:3].copy()
-            elif track.hits == 1 and len(clusters) == 1:  # never corrected: two-point start
+            elif track.hits == 1 and len(clusters) == 1 and not coasting:  # two-point start
                 piece, ends_hidden = self._one_sweep(labels, clusters[0], occluded)
                 self._restart(track, points[piece], ends_hidden, time)
             if track.updated == time or not coasting:
@@ -890,11 +890,16 @@ class LidarObjectTracker:
     def _restart(self, track: ObjectTrack, cluster: np.ndarray, occluded: np.ndarray,
                  time: float) -> None:
         """Two-point initialisation of a track never corrected (its start at rest could not
-        be matched to the moved object): fitted anew to `cluster`, velocity = the change of
-        the fitted centre since the last fit / the time since (start_velocity), fused with the
-        start at rest (fused_start_velocity), the initial covariance with the fused velocity
-        variance.  Left as it is when the fit is background or the change is outside the
-        gate."""
+        be matched to the moved object) and fitted on the previous scan: fitted anew to
+        `cluster`, velocity = the change of the fitted centre since the last fit / the time
+        since (start_velocity), fused with the start at rest (fused_start_velocity), the
+        initial covariance with the fused velocity variance.  Left as it is when the fit is
+        background or the change is outside the gate.  step calls it only for a track fitted
+        on the scan before: a fit from longer ago tells no velocity (car_static seed 3009
+        object 1: a track that took over a coasting track's id was not corrected for 0.9 s,
+        then took the car coming back into view 16 m from its fit, read as 22.6 m/s; the
+        car's velocity RMSE was 5.10 m/s, 0.34 without the restart, the cluster then starting
+        a track that _found_again hands the id)."""
         fit = self._fit(cluster, occluded)
         if fit is None:
             return
