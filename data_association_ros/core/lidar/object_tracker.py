@@ -59,8 +59,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    look for it is not known), or while it takes a cluster in the coarse association that it
    cannot correct yet: an object coming back into view at the edge of the field of view shows
    a few returns near its prediction, while the beams beside them pass through the rest);
-8. two-point start: a track never corrected whose one cluster it cannot match (an object that
-   moved farther than the fine association reaches from a start at rest) is fitted anew to the
+8. two-point start: a track never corrected, fitted on the previous scan, whose one cluster it
+   cannot match (an object that moved farther than the fine association reaches from a start
+   at rest) is fitted anew to the
    cluster with the velocity of its two fitted centres (start_velocity, chi-square gated),
    weighed against the start at rest by the fits' noise over the time between them
    (fused_start_velocity);
@@ -897,7 +898,7 @@ class LidarObjectTracker:
         background or the change is outside the gate.  step calls it only for a track fitted
         on the scan before: a fit from longer ago tells no velocity (car_static seed 3009
         object 1: a track that took over a coasting track's id was not corrected for 0.9 s,
-        then took the car coming back into view 16 m from its fit, read as 22.6 m/s; the
+        then took the car coming back into view 21 m from its fit, read as 22.8 m/s; the
         car's velocity RMSE was 5.10 m/s, 0.34 without the restart, the cluster then starting
         a track that _found_again hands the id)."""
         fit = self._fit(cluster, occluded)
