@@ -61,10 +61,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    a few returns near its prediction, while the beams beside them pass through the rest);
 8. two-point start: a track never corrected, fitted on the previous scan, whose one cluster it
    cannot match (an object that moved farther than the fine association reaches from a start
-   at rest) is fitted anew to the
-   cluster with the velocity of its two fitted centres (start_velocity, chi-square gated),
-   weighed against the start at rest by the fits' noise over the time between them
-   (fused_start_velocity);
+   at rest) is fitted anew to the cluster with the velocity of its two fitted centres
+   (start_velocity, chi-square gated), weighed against the start at rest by the fits' noise
+   over the time between them (fused_start_velocity);
 9. hand-over: a track started at t within the same-object gate (chi-square on x, y, vx, vy,
    both covariances) of an established track (min_hits updates, or continuing an older id)
    not updated at t, either the coasting one that took its cluster in the coarse association
