@@ -193,4 +193,3 @@ def test_a_full_turn_step_looks_round_the_seam_and_keeps_the_free_beams_directio
     plain = LidarObjectTracker()
     plain.step(points, 1.0)
     assert len(plain._occluded) == 2 and plain._occluded[0, 0] and plain._occluded[1, 1]
-

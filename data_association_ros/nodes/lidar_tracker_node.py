@@ -8,8 +8,8 @@ child frame) the tracks live in the odometry's frame and each scan point is move
 sensor pose at its beam's time (pipelines.lidar_tracking: ego motion between scans and, with a
 LaserScan's time_increment, within one); without odometry in the scan's frame.  A LaserScan
 whose beams go all the way round (msg_adapters.lidar.full_turn_of) is a full turn: an object
-across its first and last beams is one object.  Publishes, with
-the scan's stamp and the tracks' frame: `tracks` (PointCloud2, msg_adapters.lidar
+across its first and last beams is one object.  Publishes, with the scan's stamp and the
+tracks' frame: `tracks` (PointCloud2, msg_adapters.lidar
 TRACK_DTYPE: the reported tracks), `track_boundaries` (PointCloud2: id, x, y of each reported
 track's visible boundary points) and, when publish_markers, `track_markers` (MarkerArray);
 `/diagnostics` every second (scans tracked and dropped, live tracks, last step time).
@@ -135,9 +135,8 @@ class LidarTrackerNode(ParameterizedNode):
 
     def _wait_or_process(self, header, convert, time_increment: float, end: float) -> None:
         """Process the scan (`convert`: its points, range_max or None, and whether it is a 360
-        deg scan), or, when odometry is
-        used and has not reached the scan's last beam time `end` [s] yet, keep it until it has
-        (at most MAX_WAITING_SCANS kept)."""
+        deg scan), or, when odometry is used and has not reached the scan's last beam time
+        `end` [s] yet, keep it until it has (at most MAX_WAITING_SCANS kept)."""
         if self.waiting or (len(self.tracking.odometry) and not self.tracking.covers(end)):
             self.waiting.append((header, convert, time_increment, end))
             while len(self.waiting) > MAX_WAITING_SCANS:

@@ -224,4 +224,3 @@ def turn_start(points: np.ndarray, longest_step: float = np.inf) -> int:
     if after_missing.size:
         return int(after_missing[0])
     return int(np.argmax(steps))
-
