@@ -20,7 +20,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    by the registry associator `coarse`, the tracks corrected on the previous scan first, then
    the others with the clusters left (_tiers); a cluster left over whose centroid lies
    in a track's predicted rectangle (grown by cluster_gap) joins that track (an object split by
-   an occluder is one object);
+   an occluder is one object); in a full-turn scan, of the two clusters either side of the
+   seam (_seam_pair: an object behind the sensor that moved between the scan's last and first
+   beams) a track never corrected keeps one (_one_side);
 4. fine: match (at most max_match_points of) the track's scan points with the predicted boundary
    points (fine.match: jcbb_points with the boundary's joint covariance, Cartesian or polar jNIS,
    or nearest); fewer than min_pairs pairs: no correction;
@@ -50,7 +52,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    track (shape.fit_rectangle; velocity 0, uncertain) if it has min_pairs points, is not larger
    than max_size_ratio x the size class's prior length (walls are background) and is not
    occluded at both ends (a piece of wall seen between two objects' shadows slides with them:
-   race seed 521, such a track at 6.8 m/s beside the car whose id it later took); a track not
+   race seed 521, such a track at 6.8 m/s beside the car whose id it later took; the seam
+   pair, both free, starts one track, from the side with more returns: _one_sweep); a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
    found again; a confirmed one gives its id to a newer track not yet confirmed), as is a
    track not updated for more than max_age seconds (max_hidden_age, for a confirmed track,
@@ -337,10 +340,13 @@ class LidarObjectTracker:
                               config.min_pairs)
         ends, edges, occluded = cluster_ends(points, labels, config.edge_jump, self.sensor,
                                              max_range, self._full_turn)
+        seam = self._seam_pair(points, labels)
         self._occluded = occluded
         count = len(ends)
         members = self._coarse(points, labels, count, before)
         free = np.ones(count, dtype=bool)
+        if seam is not None:
+            self._one_side(members, labels, seam, free)
         lost: dict[int, ObjectTrack] = {}  # cluster -> the established coasting track it failed
         for track_index, clusters in members.items():
             track = self.tracks[track_index]
@@ -370,9 +376,16 @@ class LidarObjectTracker:
         self._continue_confirmed(time)
         self._drop_duplicates(time)
         for cluster in np.flatnonzero(free):
-            member, ends_hidden = self._one_sweep(labels, cluster, occluded)
+            partner = None
+            if seam is not None and cluster in seam and free[list(seam)].all():
+                if cluster == seam[1]:
+                    continue  # started with the piece on the other side of the seam
+                partner = seam[1]
+            member, ends_hidden = self._one_sweep(labels, cluster, occluded, partner)
+            whole = occluded[cluster] if partner is None else \
+                [occluded[cluster, 0], occluded[partner, 1]]
             if np.count_nonzero(member) >= config.min_pairs \
-                    and not occluded[cluster].all():  # maybe background between two shadows
+                    and not np.all(whole):  # maybe background between two shadows
                 late = float(np.mean(self._offsets[member]))
                 started = self._start(points[member], ends_hidden, time, late)
                 old = None if started is None else \
@@ -392,8 +405,35 @@ class LidarObjectTracker:
             return index % count
         return index if 0 <= index < count else None
 
-    def _one_sweep(self, labels: np.ndarray, cluster: int, occluded: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
+    def _one_side(self, members: dict[int, list], labels: np.ndarray,
+                  seam: tuple[int, int], free: np.ndarray) -> None:
+        """A track never corrected (hits 1: no velocity to move the late returns back with)
+        given both clusters of the seam pair keeps the one with more returns (the early one
+        on a tie, as _one_sweep); the other is not free to start a track either."""
+        counts = [np.count_nonzero(labels == cluster) for cluster in seam]
+        dropped = seam[0] if counts[1] >= counts[0] else seam[1]
+        for track_index, clusters in members.items():
+            if self.tracks[track_index].hits == 1 and set(seam) <= set(clusters):
+                clusters.remove(dropped)
+                free[dropped] = False
+
+    def _seam_pair(self, points: np.ndarray, labels: np.ndarray) -> Optional[tuple[int, int]]:
+        """(the cluster ending at the seam, the one starting there) of a full-turn scan whose
+        returns on either side of the seam (the scan's last and first beams, taken a scan
+        period apart) are at most the prior length apart: one object that moved between them
+        (at 10 m/s and 10 Hz, 1 m; the cut looks like a jump in range), or two objects side
+        by side; else None."""
+        first = self._first_beam
+        if not first:
+            return None
+        late, early = int(labels[first - 1]), int(labels[first])
+        step = float(np.hypot(*(points[first] - points[first - 1])))
+        if late < 0 or early < 0 or late == early or step > self.config.priors()[0]:
+            return None
+        return late, early
+
+    def _one_sweep(self, labels: np.ndarray, cluster: int, occluded: np.ndarray,
+                   partner: Optional[int] = None) -> tuple[np.ndarray, np.ndarray]:
         """(member mask (K,), its ends' occluded flags (2,)) of the returns of `cluster` that a
         new rectangle is fitted to.  In a full-turn scan a cluster over the beam the sensor
         took first (an object behind the sensor) holds returns taken a whole scan period
@@ -401,9 +441,13 @@ class LidarObjectTracker:
         smeared by that much (car_static seed 2008 object 4 with a 10 Hz 360 deg LiDAR:
         velocity RMSE 1.51 m/s, 0.50 with one side).  Such a cluster gives the side with more
         returns, the end at that beam counted as occluded (completed by the priors); else the
-        whole cluster with `occluded[cluster]`."""
+        whole cluster with `occluded[cluster]`.  `partner`: the cluster starting at the seam
+        when `cluster` ends there (_seam_pair), taken with it as one such cluster."""
         member = labels == cluster
         hidden = occluded[cluster].copy()
+        if partner is not None:
+            member |= labels == partner
+            hidden[1] = occluded[partner, 1]
         first = self._first_beam
         if first and member[first - 1] and member[first]:
             early = member & (np.arange(len(labels)) >= first)  # taken after the stamp
