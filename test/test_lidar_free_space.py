@@ -370,12 +370,14 @@ def test_an_extent_cut_along_a_wrong_heading_is_fitted_anew(radius, speed, start
     for radius 1.5; 131 deg, 49 off the axis, for radius 3.0, whose width is then cut back
     along it to 0.06 m and, as the sensor at the circle's centre only ever sees the car's inner
     side, never grows again).  Fitted anew once the corrections have turned the heading by
-    more than EXTENT_SWING (20 deg): position RMSE 0.042 -> 0.006 m and 0.093 -> 0.007 m
-    (without the refit: EXTENT_SWING infinite)."""
+    more than EXTENT_SWING (20 deg): position RMSE 0.04-0.17 -> 0.006-0.021 m and 0.093 ->
+    0.007 m (without the refit: EXTENT_SWING infinite; for radius 1.5 the ranges are over the
+    machines' floating-point kernels: an earlier machine, OpenBLAS' Sandybridge and Haswell
+    kernels on an AMD EPYC; docs/lidar.md "Results that depend on the CPU")."""
     scans = _circle_through_the_blind_sector(radius, speed, start)
     config = configuration('f1tenth_static', TrackerConfig())
     result = score(scans, run_offline(scans, config)[0])[1]
-    assert result.track_ids == [1] and result.position_rmse < 0.015, result
+    assert result.track_ids == [1] and result.position_rmse < 0.025, result
     monkeypatch.setattr(object_tracker, 'EXTENT_SWING', np.inf)
     kept = score(scans, run_offline(scans, config)[0])[1]
     assert kept.position_rmse > 0.03, kept
