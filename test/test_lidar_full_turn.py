@@ -193,6 +193,49 @@ def test_a_track_never_corrected_keeps_one_side_of_the_seam():
     assert members == {1: [0, 1]} and free.all()
 
 
+def test_one_sweep_of_a_seam_pair_keeps_the_side_with_more_returns():
+    """Rolled beams 0-9, the scan's first beam at 4: cluster 0 (beams 1-3, taken at the scan's
+    end) and cluster 1 (beams 4-8) as one: the early side, its outer end's flag kept."""
+    tracker = tracker_at_seam(4)
+    occluded = np.array([[True, False], [False, True]])
+    labels = np.array([-1, 0, 0, 0, 1, 1, 1, 1, 1, -1])
+    member, hidden = tracker._one_sweep(labels, 0, occluded, partner=1)
+    assert list(np.flatnonzero(member)) == [4, 5, 6, 7, 8] and list(hidden) == [True, True]
+    labels = np.array([0, 0, 0, 0, 1, 1, -1, -1, -1, -1])  # 4 late, 2 early: the late side
+    member, hidden = tracker._one_sweep(labels, 0, occluded, partner=1)
+    assert list(np.flatnonzero(member)) == [0, 1, 2, 3] and list(hidden) == [True, True]
+    occluded[0, 0] = False
+    assert list(tracker._one_sweep(labels, 0, occluded, partner=1)[1]) == [False, True]
+
+
+def test_a_seam_pair_that_starts_no_track_starts_each_side_on_its_own(monkeypatch):
+    """Scan 0 of car_moving seed 3012 (10 Hz 360 deg) holds a seam pair, both free.  When the
+    pair as one starts nothing (here forced: as if its larger side were a piece of wall), each
+    side is tried on its own."""
+    scans = spin_scans('car_moving', 3012)
+    calls = []
+    original = LidarObjectTracker._start_from
+
+    def recorded(self, points, labels, occluded, cluster, partner, *rest):
+        calls.append((cluster, partner))
+        if partner is not None:
+            return False
+        return original(self, points, labels, occluded, cluster, partner, *rest)
+    monkeypatch.setattr(LidarObjectTracker, '_start_from', recorded)
+    tracker = LidarObjectTracker(configuration('car_moving', TrackerConfig()))
+    seams = []
+    pair = LidarObjectTracker._seam_pair
+    monkeypatch.setattr(LidarObjectTracker, '_seam_pair',
+                        lambda self, *args: seams.append(pair(self, *args)) or seams[-1])
+    scan = scans[0]
+    tracker.step(scan.points, scan.time, offsets=np.arange(len(scan.points)) *
+                 scan.time_increment, max_range=scan.max_range, full_turn=True)
+    late, early = seams[0]
+    assert (late, early) in calls and (late, None) in calls and (early, None) in calls
+    assert calls.index((late, early)) < calls.index((late, None))
+    assert not any(partner is not None for _, partner in calls if _ != late)
+
+
 def test_a_car_cut_in_two_at_the_seam_by_its_own_motion_is_one_track(monkeypatch):
     """car_moving seed 3012 object 2 (10 Hz 360 deg, the sensor driving at 5.8 m/s) drives
     away behind the sensor at 6.9 m/s: between the scan's last and first beams it moves

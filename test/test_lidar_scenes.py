@@ -864,13 +864,13 @@ def test_a_refit_farther_from_the_coasting_prediction_is_not_taken():
     than the fit's, so the fit stays (_hand_over): velocity 0.28-0.29 m/s, position 0.022-0.026
     m.  The heading RMSE depends on the machine's floating-point kernels (the car is found again
     with 3-7 returns, a knife edge): 3.9 deg with OpenBLAS' Sandybridge kernels, 11.4 deg (30-50
-    deg off on scans 71-76) with its Haswell ones on an AMD EPYC without AVX-512, so it is not
-    asserted (docs/lidar.md "Results that depend on the CPU")."""
+    deg off on scans 71-76) with its Haswell ones on an AMD EPYC without AVX-512, so only a
+    bound above both is asserted (docs/lidar.md "Results that depend on the CPU")."""
     scans = scans_from_messages(KINDS['f1tenth_moving'](1000).messages())
     result = score(scans, run_offline(scans, configuration('f1tenth_moving',
                                                            TrackerConfig()))[0])[1]
     assert result.id_switches == 0 and result.velocity_rmse < 0.5, result
-    assert result.position_rmse < 0.05, result
+    assert result.position_rmse < 0.05 and result.heading_rmse_deg < 15.0, result
 
 
 def test_a_heading_coasted_round_a_bend_does_not_refit_the_car_found_again(monkeypatch):

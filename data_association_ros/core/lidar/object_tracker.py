@@ -52,8 +52,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    track (shape.fit_rectangle; velocity 0, uncertain) if it has min_pairs points, is not larger
    than max_size_ratio x the size class's prior length (walls are background) and is not
    occluded at both ends (a piece of wall seen between two objects' shadows slides with them:
-   race seed 521, such a track at 6.8 m/s beside the car whose id it later took; the seam
-   pair, both free, starts one track, from the side with more returns: _one_sweep); a track not
+   race seed 521, such a track at 6.8 m/s beside the car whose id it later took); the seam
+   pair, both free, starts one track, from the side with more returns (_one_sweep), or, when
+   that side starts none, each its own; a track not
    updated at t whose centre lies in the rectangle of one that was is dropped (the same object
    found again; a confirmed one gives its id to a newer track not yet confirmed), as is a
    track not updated for more than max_age seconds (max_hidden_age, for a confirmed track,
@@ -375,27 +376,40 @@ class LidarObjectTracker:
                            and (id(t) in taking or self._hidden(t)))]
         self._continue_confirmed(time)
         self._drop_duplicates(time)
-        for cluster in np.flatnonzero(free):
-            partner = None
-            if seam is not None and cluster in seam and free[list(seam)].all():
-                if cluster == seam[1]:
-                    continue  # started with the piece on the other side of the seam
-                partner = seam[1]
-            member, ends_hidden = self._one_sweep(labels, cluster, occluded, partner)
-            whole = occluded[cluster] if partner is None else \
-                [occluded[cluster, 0], occluded[partner, 1]]
-            if np.count_nonzero(member) >= config.min_pairs \
-                    and not np.all(whole):  # maybe background between two shadows
-                late = float(np.mean(self._offsets[member]))
-                started = self._start(points[member], ends_hidden, time, late)
-                old = None if started is None else \
-                    self._found_again(started, time, before, lost.get(cluster))
-                if old is not None:
-                    self._hand_over(old, started, late, points[member], ends_hidden)
+        paired = seam is not None and bool(free[list(seam)].all())  # the pair as one cluster
+        starts = [(int(c), seam[1] if paired and c == seam[0] else None)
+                  for c in np.flatnonzero(free) if not (paired and c == seam[1])]
+        for cluster, partner in starts:
+            started = self._start_from(points, labels, occluded, cluster, partner, time,
+                                       before, lost)
+            if partner is not None and not started:  # neither side as one: each on its own
+                for piece in seam:
+                    self._start_from(points, labels, occluded, piece, None, time, before,
+                                     lost)
         reported = self.reported()
         for track in reported:
             track.published = True
         return reported
+
+    def _start_from(self, points: np.ndarray, labels: np.ndarray, occluded: np.ndarray,
+                    cluster: int, partner: Optional[int], time: float, before: Optional[float],
+                    lost: dict) -> bool:
+        """Step 7 and the hand-over (9) for one free cluster (with `partner`: the seam pair
+        as one, _one_sweep): whether a track was started."""
+        member, ends_hidden = self._one_sweep(labels, cluster, occluded, partner)
+        whole = occluded[cluster] if partner is None else \
+            [occluded[cluster, 0], occluded[partner, 1]]
+        if np.count_nonzero(member) < self.config.min_pairs or np.all(whole):
+            return False  # too few returns, or maybe background between two shadows
+        late = float(np.mean(self._offsets[member]))
+        started = self._start(points[member], ends_hidden, time, late)
+        if started is None:
+            return False
+        failed = next((lost[c] for c in (cluster, partner) if c in lost), None)
+        old = self._found_again(started, time, before, failed)
+        if old is not None:
+            self._hand_over(old, started, late, points[member], ends_hidden)
+        return True
 
     def _beyond(self, index: int, count: int) -> Optional[int]:
         """The beam `index` next to a cluster end (one before its first or after its last) of
