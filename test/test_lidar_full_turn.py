@@ -16,8 +16,8 @@ from data_association_ros.bag.lidar_seeds import configuration
 from data_association_ros.core.lidar import TrackerConfig
 from data_association_ros.core.lidar.clustering import (cluster_consecutive, cluster_ends,
                                                         turn_start)
-from data_association_ros.core.lidar.object_tracker import LidarObjectTracker, ObjectTrack
-from data_association_ros.core.tracking.kalman import KalmanFilter
+from data_association_ros.core.lidar.object_tracker import (LidarObjectTracker, ObjectTrack,
+                                                             motion_filter)
 from msg_adapters.lidar import full_turn_of
 
 SPIN = OTHER_LIDARS['360_10hz']
@@ -177,8 +177,7 @@ def test_seam_pair_by_hand():
 def test_a_track_never_corrected_keeps_one_side_of_the_seam():
     """Track 0 has not been corrected yet (hits 1), track 1 has."""
     tracker = tracker_at_seam(4)
-    eye = np.eye(6)
-    tracker.tracks = [ObjectTrack(1, KalmanFilter(np.zeros(6), eye, eye, eye, eye, eye), 4.5,
+    tracker.tracks = [ObjectTrack(1, motion_filter(np.zeros(6), np.eye(6), tracker.config), 4.5,
                                   1.8, np.zeros(2), hits=hits) for hits in (1, 2)]
     labels = np.array([-1, 0, 0, 0, 1, 1, -1, -1, -1, -1])  # 3 late, 2 early returns
     members, free = {0: [0, 1]}, np.ones(2, dtype=bool)
@@ -222,14 +221,14 @@ def test_a_seam_pair_that_starts_no_track_starts_each_side_on_its_own(monkeypatc
             return False
         return original(self, points, labels, occluded, cluster, partner, *rest)
     monkeypatch.setattr(LidarObjectTracker, '_start_from', recorded)
-    tracker = LidarObjectTracker(configuration('car_moving', TrackerConfig()))
     seams = []
     pair = LidarObjectTracker._seam_pair
-    monkeypatch.setattr(LidarObjectTracker, '_seam_pair',
-                        lambda self, *args: seams.append(pair(self, *args)) or seams[-1])
-    scan = scans[0]
-    tracker.step(scan.points, scan.time, offsets=np.arange(len(scan.points)) *
-                 scan.time_increment, max_range=scan.max_range, full_turn=True)
+
+    def seam_pair(self, points, labels):
+        seams.append(pair(self, points, labels))
+        return seams[-1]
+    monkeypatch.setattr(LidarObjectTracker, '_seam_pair', seam_pair)
+    run_offline(scans[:1], configuration('car_moving', TrackerConfig()))
     late, early = seams[0]
     assert (late, early) in calls and (late, None) in calls and (early, None) in calls
     assert calls.index((late, early)) < calls.index((late, None))
