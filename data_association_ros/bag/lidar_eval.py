@@ -4,7 +4,8 @@ scored against the truth.
     da_lidar_eval [BAG] [--rows default,nearest,polar,...] [--first 0] [--repeat 1] [--live]
                   [--paced] [-p name=value ...]
     da_lidar_eval --scenes car_static,car_moving,f1tenth_static,f1tenth_moving,race
-                  [--seeds 100-129] [--lidar 360_10hz] [-p name=value ...]
+                  [--seeds 100-129] [--lidar 360_10hz] [--jobs 2] [--objects OUT.csv]
+                  [-p name=value ...]
 
 Runs the core tracker offline over /scan (sensor_msgs/LaserScan) with the bag's /odometry if any
 (pipelines.lidar_tracking), once per row (a row = the default parameters with some changed), and
@@ -13,7 +14,8 @@ over real DDS (loopback, own domain; each scan once the previous one's `tracks` 
 scores those `tracks` (the same numbers as offline, or a bug); --paced plays them at the bag's
 own rate and reports the node's step times and the scans it tracked.  --scenes: generated
 scenes (bag.lidar_random_scene) of each kind over the seeds, summarised per kind
-(bag.lidar_seeds: median and worst object).
+(bag.lidar_seeds: median and worst object); --objects writes every object's scores to a CSV
+file; --jobs runs the seeds on several processes.
 
 Scores, per object (the truth on /ground_truth/objects, in the tracks' frame, matched to a scan
 by header stamp): in each scan from --first on, the reported tracks are paired with the true
@@ -29,8 +31,10 @@ scan: the tracking step only (clustering, association, update), median and 95th 
 from __future__ import annotations
 
 import argparse
+import csv
 import sys
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Optional, Sequence
@@ -379,12 +383,13 @@ SCENE_LIDARS = ('360_10hz', '270_25hz', '360_10hz_coarse', '270_40hz_coarse')
 
 
 def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str],
-                 lidar_name: str = '') -> int:
+                 lidar_name: str = '', jobs: int = 1, objects: Optional[Path] = None) -> int:
     """--scenes: the summary table over the seeds of each kind (lidar_seeds), seen by the
-    LiDAR `lidar_name` of lidar_random_scene.OTHER_LIDARS when given."""
+    LiDAR `lidar_name` of lidar_random_scene.OTHER_LIDARS when given, the seeds on `jobs`
+    processes; every object's scores to the new CSV file `objects` when given."""
     from .lidar_random_scene import KINDS, OTHER_LIDARS
-    from .lidar_seeds import SUMMARY_HEADER, evaluate_kind, parse_seeds, summary_row, \
-        worst_objects
+    from .lidar_seeds import OBJECT_COLUMNS, SUMMARY_HEADER, evaluate_kind, object_rows, \
+        parse_seeds, summary_row, worst_objects
     unknown = [k for k in kinds if k not in KINDS]
     if unknown:
         print(f'da_lidar_eval: unknown scene kind {unknown[0]!r} (valid: {", ".join(KINDS)})',
@@ -400,18 +405,32 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
     except (ValueError, InvalidInputError) as error:
         print(f'da_lidar_eval: {error}', file=sys.stderr)
         return 2
+    try:  # exclusive: an earlier run's file is never overwritten
+        table = open(objects, 'x', newline='') if objects is not None else None
+    except OSError as error:
+        print(f'da_lidar_eval: --objects {objects}: {error.strerror}', file=sys.stderr)
+        return 2
     rows, notes = [], []
-    for kind in kinds:
-        result = evaluate_kind(kind, seeds, base,
-                               progress=lambda text: print(text, file=sys.stderr, flush=True),
-                               lidar=OTHER_LIDARS.get(lidar_name))
-        rows.append(summary_row(result, seeds))
-        notes.extend(worst_objects(result))
+    with table or nullcontext():
+        if table:
+            writer = csv.writer(table, lineterminator='\n')
+            writer.writerow(OBJECT_COLUMNS)
+        for kind in kinds:
+            result = evaluate_kind(kind, seeds, base,
+                                   progress=lambda text: print(text, file=sys.stderr, flush=True),
+                                   lidar=OTHER_LIDARS.get(lidar_name), jobs=jobs)
+            rows.append(summary_row(result, seeds))
+            notes.extend(worst_objects(result))
+            if table:
+                writer.writerows(object_rows(result, lidar_name))
+                table.flush()
     print(SUMMARY_HEADER)
     print('\n'.join(rows))
     if notes:
         print('objects missing a limit or switching ids (worst position first):')
         print('\n'.join(notes))
+    if objects is not None:
+        print(f'every object: {objects}')
     return 0
 
 
@@ -439,6 +458,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help='--scenes seen by another LiDAR than their own (40 Hz, 270 deg, '
                         '0.25 deg): 360_10hz (0.2 deg, 60 m), 270_25hz (0.5 deg, 20 m), '
                         '360_10hz_coarse (0.5 deg, 12 m), 270_40hz_coarse (0.5 deg, 10 m)')
+    parser.add_argument('--jobs', type=int, default=1,
+                        help='--scenes: run the seeds on this many processes (the same scores; '
+                        'the ms per scan then share the cores)')
+    parser.add_argument('--objects', type=Path,
+                        help='--scenes: also write every scored object\'s scores to this new CSV '
+                        'file (refused if it exists)')
     parser.add_argument('--paced', action='store_true',
                         help='also play the bag through lidar_tracker_node at its own rate '
                         '(real time) and report the node\'s step times')
@@ -449,8 +474,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     unknown = [r for r in rows if r not in ROWS]
     if unknown:
         parser.error(f'unknown row {unknown[0]!r} (valid: {", ".join(ROWS)})')
+    if args.jobs < 1:
+        parser.error(f'--jobs must be at least 1, not {args.jobs}')
     if args.scenes:
-        return scene_report(args.scenes.split(','), args.seeds, args.parameter, args.lidar)
+        return scene_report(args.scenes.split(','), args.seeds, args.parameter, args.lidar,
+                            args.jobs, args.objects)
+    if args.objects is not None or args.jobs != 1:
+        parser.error('--objects and --jobs go with --scenes')
     try:
         scans = read_scans(args.bag)
         base = TrackerConfig().with_values(**parse_values(args.parameter))

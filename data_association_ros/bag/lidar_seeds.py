@@ -9,7 +9,10 @@ docs/lidar.md uses others (100-129).
 """
 from __future__ import annotations
 
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import ExitStack
 from dataclasses import dataclass, replace
+from itertools import repeat
 from typing import Callable, Optional, Sequence
 
 import numpy as np
@@ -48,24 +51,35 @@ def configuration(kind: str, base: TrackerConfig) -> TrackerConfig:
 
 def evaluate_kind(kind: str, seeds: Sequence[int], base: TrackerConfig,
                   progress: Optional[Callable[[str], None]] = None,
-                  lidar: Optional[Lidar] = None) -> KindResult:
+                  lidar: Optional[Lidar] = None, jobs: int = 1) -> KindResult:
     """Every seed's scene of `kind` through the core tracker, scored; seen by `lidar` instead
-    of the scene's own LiDAR when given (lidar_random_scene.OTHER_LIDARS)."""
+    of the scene's own LiDAR when given (lidar_random_scene.OTHER_LIDARS).  jobs > 1: the seeds
+    on that many processes (the same scores; the times per scan then share the cores)."""
     config = configuration(kind, base)
     objects, elapsed = [], []
-    for seed in seeds:
-        scene = KINDS[kind](seed)
-        if lidar is not None:
-            scene = replace(scene, lidar=lidar)
-        scans = scans_from_messages(scene.messages())
-        estimates, times = run_offline(scans, config)
-        elapsed.append(times)
-        for object_id, result in sorted(score(scans, estimates).items()):
-            if result.scans >= MIN_SCORED_SCANS:
-                objects.append((seed, object_id, result))
-        if progress:
-            progress(f'{kind} seed {seed}: {len(objects)} objects so far')
+    processes = min(jobs, len(seeds))
+    with ExitStack() as stack:
+        mapped = (stack.enter_context(ProcessPoolExecutor(processes)).map if processes > 1
+                  else map)(evaluate_seed, repeat(kind), seeds, repeat(config), repeat(lidar))
+        for seed, (found, times) in zip(seeds, mapped):
+            objects.extend(found)
+            elapsed.append(times)
+            if progress:
+                progress(f'{kind} seed {seed}: {len(objects)} objects so far')
     return KindResult(kind, objects, np.concatenate(elapsed) if elapsed else np.zeros(0))
+
+
+def evaluate_seed(kind: str, seed: int, config: TrackerConfig, lidar: Optional[Lidar]
+                  ) -> tuple[list, np.ndarray]:
+    """One seed's scene of `kind` (seen by `lidar` when given) through the tracker with
+    `config`: ([(seed, object id, ObjectScore) of each scored object], ms per scan)."""
+    scene = KINDS[kind](seed)
+    if lidar is not None:
+        scene = replace(scene, lidar=lidar)
+    scans = scans_from_messages(scene.messages())
+    estimates, times = run_offline(scans, config)
+    scored = sorted(score(scans, estimates).items())
+    return [(seed, i, result) for i, result in scored if result.scans >= MIN_SCORED_SCANS], times
 
 
 def within(kind: str, result: ObjectScore) -> tuple[bool, bool, bool]:
@@ -124,6 +138,26 @@ def worst_objects(result: KindResult, count: int = 3) -> list[str]:
                      f'{s.velocity_rmse:.2f} m/s, coverage {100 * s.coverage:.0f} %, id switches '
                      f'{s.id_switches}, scans {s.scans}')
     return lines
+
+
+OBJECT_COLUMNS = ('kind', 'lidar', 'seed', 'object', 'scans', 'coverage', 'position_rmse_m',
+                  'heading_rmse_deg', 'velocity_rmse_mps', 'id_switches', 'within_position',
+                  'within_heading', 'within_velocity', 'passes')
+"""da_lidar_eval --objects: one CSV row per scored object; passes = within all three limits
+with no id switch (the table's last share but one)."""
+
+
+def object_rows(result: KindResult, lidar_name: str) -> list[list]:
+    """The rows of OBJECT_COLUMNS of every scored object of `result`, seen by the LiDAR
+    lidar_name ('' for the scene's own)."""
+    rows = []
+    for seed, object_id, s in result.objects:
+        limits = within(result.kind, s)
+        rows.append([result.kind, lidar_name, seed, int(object_id), s.scans, f'{s.coverage:.4f}',
+                     f'{s.position_rmse:.4f}', f'{s.heading_rmse_deg:.3f}',
+                     f'{s.velocity_rmse:.4f}', s.id_switches, *map(int, limits),
+                     int(all(limits) and not s.id_switches)])
+    return rows
 
 
 def parse_seeds(text: str) -> list[int]:

@@ -1,0 +1,51 @@
+"""da_lidar_eval --scenes as a user runs it: --jobs gives the scores of one process, --objects
+writes every scored object once, with the issue's limits applied by hand, and never overwrites."""
+import csv
+
+import numpy as np
+
+from data_association_ros.bag.lidar_eval import main
+from data_association_ros.bag.lidar_random_scene import OTHER_LIDARS
+from data_association_ros.bag.lidar_seeds import OBJECT_COLUMNS, evaluate_kind
+from data_association_ros.core.lidar import TrackerConfig
+
+SEEDS = [3000, 3001]   # car_moving with the 360 deg, 10 Hz LiDAR: 5 cars, across the seam too
+
+
+def test_two_processes_score_as_one_and_every_object_is_written(tmp_path, capsys):
+    serial = evaluate_kind('car_moving', SEEDS, TrackerConfig(), lidar=OTHER_LIDARS['360_10hz'])
+    out = tmp_path / 'objects.csv'
+    assert main(['--scenes', 'car_moving', '--seeds', '3000,3001', '--lidar', '360_10hz',
+                 '--jobs', '2', '--objects', str(out)]) == 0
+    table = capsys.readouterr().out
+    with open(out, newline='') as f:
+        rows = list(csv.reader(f))
+    assert tuple(rows[0]) == OBJECT_COLUMNS
+    rows = [dict(zip(OBJECT_COLUMNS, row)) for row in rows[1:]]
+    assert len(rows) == len(serial.objects) > 0
+    summary = [line for line in table.splitlines() if line.startswith('| car_moving')]
+    cells = [cell.strip() for cell in summary[0].strip('|').split('|')]
+    assert cells[:2] == ['car_moving (seeds 3000-3001)', str(len(rows))]
+    for row, (seed, object_id, s) in zip(rows, serial.objects):
+        assert (row['kind'], row['lidar'], int(row['seed']), int(row['object'])) == \
+            ('car_moving', '360_10hz', seed, object_id)
+        assert int(row['scans']) == s.scans and int(row['id_switches']) == s.id_switches
+        np.testing.assert_allclose(
+            [float(row[c]) for c in ('coverage', 'position_rmse_m', 'heading_rmse_deg',
+                                     'velocity_rmse_mps')],
+            [s.coverage, s.position_rmse, s.heading_rmse_deg, s.velocity_rmse], atol=1e-3)
+        # issue 21's limits for a full-size car: 0.3 m, 5 deg, 0.8 m/s, no id switch
+        limits = (s.position_rmse <= 0.3, s.heading_rmse_deg <= 5.0, s.velocity_rmse <= 0.8)
+        assert [int(row[c]) for c in ('within_position', 'within_heading',
+                                      'within_velocity')] == list(map(int, limits))
+        assert int(row['passes']) == int(all(limits) and s.id_switches == 0)
+    # the table's "objects within all three, no id switch [%]"
+    assert cells[8] == f"{100 * np.mean([int(row['passes']) for row in rows]):.0f}"
+
+
+def test_an_existing_objects_file_is_refused_and_kept(tmp_path, capsys):
+    out = tmp_path / 'objects.csv'
+    out.write_text('an earlier run\n')
+    assert main(['--scenes', 'race', '--seeds', '100', '--objects', str(out)]) == 2
+    assert 'File exists' in capsys.readouterr().err
+    assert out.read_text() == 'an earlier run\n'
