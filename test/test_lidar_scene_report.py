@@ -1,9 +1,12 @@
 """da_lidar_eval --scenes as a user runs it: --jobs gives the scores of one process, --objects
 writes every scored object once, with the issue's limits applied by hand, and never overwrites."""
 import csv
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
+import pytest
 
+from data_association_ros.bag import lidar_eval, lidar_seeds
 from data_association_ros.bag.lidar_eval import main
 from data_association_ros.bag.lidar_random_scene import OTHER_LIDARS
 from data_association_ros.bag.lidar_seeds import OBJECT_COLUMNS, evaluate_kind
@@ -12,11 +15,19 @@ from data_association_ros.core.lidar import TrackerConfig
 SEEDS = [3000, 3001]   # car_moving with the 360 deg, 10 Hz LiDAR: 5 cars, across the seam too
 
 
-def test_two_processes_score_as_one_and_every_object_is_written(tmp_path, capsys):
+def test_two_processes_score_as_one_and_every_object_is_written(tmp_path, capsys, monkeypatch):
     serial = evaluate_kind('car_moving', SEEDS, TrackerConfig(), lidar=OTHER_LIDARS['360_10hz'])
     out = tmp_path / 'objects.csv'
+    pools = []
+
+    class Pool(ProcessPoolExecutor):
+        def __init__(self, workers):
+            pools.append(workers)
+            super().__init__(workers)
+    monkeypatch.setattr(lidar_eval, 'ProcessPoolExecutor', Pool)
     assert main(['--scenes', 'car_moving', '--seeds', '3000,3001', '--lidar', '360_10hz',
                  '--jobs', '2', '--objects', str(out)]) == 0
+    assert pools == [2]   # one pool of two processes served the seeds
     table = capsys.readouterr().out
     with open(out, newline='') as f:
         rows = list(csv.reader(f))
@@ -49,3 +60,15 @@ def test_an_existing_objects_file_is_refused_and_kept(tmp_path, capsys):
     assert main(['--scenes', 'race', '--seeds', '100', '--objects', str(out)]) == 2
     assert 'File exists' in capsys.readouterr().err
     assert out.read_text() == 'an earlier run\n'
+
+
+def test_a_run_cut_short_leaves_no_objects_file(tmp_path, monkeypatch):
+    out = tmp_path / 'objects.csv'
+
+    def interrupted(*args, **kwargs):
+        assert out.exists()   # opened (header written) before the first kind
+        raise KeyboardInterrupt
+    monkeypatch.setattr(lidar_seeds, 'evaluate_kind', interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        main(['--scenes', 'race', '--seeds', '100', '--objects', str(out)])
+    assert not out.exists()

@@ -34,6 +34,7 @@ import argparse
 import csv
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -411,19 +412,24 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
         print(f'da_lidar_eval: --objects {objects}: {error.strerror}', file=sys.stderr)
         return 2
     rows, notes = [], []
-    with table or nullcontext():
-        if table:
-            writer = csv.writer(table, lineterminator='\n')
-            writer.writerow(OBJECT_COLUMNS)
-        for kind in kinds:
-            result = evaluate_kind(kind, seeds, base,
-                                   progress=lambda text: print(text, file=sys.stderr, flush=True),
-                                   lidar=OTHER_LIDARS.get(lidar_name), jobs=jobs)
-            rows.append(summary_row(result, seeds))
-            notes.extend(worst_objects(result))
+    try:
+        with table or nullcontext(), \
+                ProcessPoolExecutor(jobs) if jobs > 1 else nullcontext() as pool:
             if table:
-                writer.writerows(object_rows(result, lidar_name))
-                table.flush()
+                writer = csv.writer(table, lineterminator='\n')
+                writer.writerow(OBJECT_COLUMNS)
+            for kind in kinds:
+                result = evaluate_kind(
+                    kind, seeds, base, lidar=OTHER_LIDARS.get(lidar_name), pool=pool,
+                    progress=lambda text: print(text, file=sys.stderr, flush=True))
+                rows.append(summary_row(result, seeds))
+                notes.extend(worst_objects(result))
+                if table:
+                    writer.writerows(object_rows(result, lidar_name))
+    except BaseException:  # a run cut short leaves no partial file to refuse the next one
+        if objects is not None:
+            objects.unlink(missing_ok=True)
+        raise
     print(SUMMARY_HEADER)
     print('\n'.join(rows))
     if notes:
@@ -463,7 +469,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         'the ms per scan then share the cores)')
     parser.add_argument('--objects', type=Path,
                         help='--scenes: also write every scored object\'s scores to this new CSV '
-                        'file (refused if it exists)')
+                        'file (refused if it exists; removed if the run fails or is cut short)')
     parser.add_argument('--paced', action='store_true',
                         help='also play the bag through lidar_tracker_node at its own rate '
                         '(real time) and report the node\'s step times')

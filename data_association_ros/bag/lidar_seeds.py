@@ -9,8 +9,7 @@ docs/lidar.md uses others (100-129).
 """
 from __future__ import annotations
 
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import ExitStack
+from concurrent.futures import Executor
 from dataclasses import dataclass, replace
 from itertools import repeat
 from typing import Callable, Optional, Sequence
@@ -51,21 +50,19 @@ def configuration(kind: str, base: TrackerConfig) -> TrackerConfig:
 
 def evaluate_kind(kind: str, seeds: Sequence[int], base: TrackerConfig,
                   progress: Optional[Callable[[str], None]] = None,
-                  lidar: Optional[Lidar] = None, jobs: int = 1) -> KindResult:
+                  lidar: Optional[Lidar] = None, pool: Optional[Executor] = None) -> KindResult:
     """Every seed's scene of `kind` through the core tracker, scored; seen by `lidar` instead
-    of the scene's own LiDAR when given (lidar_random_scene.OTHER_LIDARS).  jobs > 1: the seeds
-    on that many processes (the same scores; the times per scan then share the cores)."""
+    of the scene's own LiDAR when given (lidar_random_scene.OTHER_LIDARS); the seeds on the
+    processes of `pool` when given (the same scores; the times per scan then share the cores)."""
     config = configuration(kind, base)
     objects, elapsed = [], []
-    processes = min(jobs, len(seeds))
-    with ExitStack() as stack:
-        mapped = (stack.enter_context(ProcessPoolExecutor(processes)).map if processes > 1
-                  else map)(evaluate_seed, repeat(kind), seeds, repeat(config), repeat(lidar))
-        for seed, (found, times) in zip(seeds, mapped):
-            objects.extend(found)
-            elapsed.append(times)
-            if progress:
-                progress(f'{kind} seed {seed}: {len(objects)} objects so far')
+    mapped = (pool.map if pool is not None else map)(
+        evaluate_seed, repeat(kind), seeds, repeat(config), repeat(lidar))
+    for seed, (found, times) in zip(seeds, mapped):
+        objects.extend(found)
+        elapsed.append(times)
+        if progress:
+            progress(f'{kind} seed {seed}: {len(objects)} objects so far')
     return KindResult(kind, objects, np.concatenate(elapsed) if elapsed else np.zeros(0))
 
 
@@ -143,8 +140,9 @@ def worst_objects(result: KindResult, count: int = 3) -> list[str]:
 OBJECT_COLUMNS = ('kind', 'lidar', 'seed', 'object', 'scans', 'coverage', 'position_rmse_m',
                   'heading_rmse_deg', 'velocity_rmse_mps', 'id_switches', 'within_position',
                   'within_heading', 'within_velocity', 'passes')
-"""da_lidar_eval --objects: one CSV row per scored object; passes = within all three limits
-with no id switch (the table's last share but one)."""
+"""da_lidar_eval --objects: one CSV row per scored object; lidar '' for the scene's own,
+coverage a fraction (0-1), within_* and passes 1 or 0; passes = within all three limits with no
+id switch (the table's last share)."""
 
 
 def object_rows(result: KindResult, lidar_name: str) -> list[list]:
