@@ -21,9 +21,9 @@ def test_two_processes_score_as_one_and_every_object_is_written(tmp_path, capsys
     pools = []
 
     class Pool(ProcessPoolExecutor):
-        def __init__(self, workers):
+        def __init__(self, workers, **options):
             pools.append(workers)
-            super().__init__(workers)
+            super().__init__(workers, **options)
     monkeypatch.setattr(lidar_eval, 'ProcessPoolExecutor', Pool)
     assert main(['--scenes', 'car_moving', '--seeds', '3000,3001', '--lidar', '360_10hz',
                  '--jobs', '2', '--objects', str(out)]) == 0

@@ -36,6 +36,7 @@ import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import nullcontext
+from multiprocessing import get_context
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Optional, Sequence
@@ -413,8 +414,9 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
         return 2
     rows, notes = [], []
     try:
-        with table or nullcontext(), \
-                ProcessPoolExecutor(jobs) if jobs > 1 else nullcontext() as pool:
+        # spawned, not forked: a caller with threads (rclpy's, a test runner's) forks safely
+        with table or nullcontext(), ProcessPoolExecutor(
+                jobs, mp_context=get_context('spawn')) if jobs > 1 else nullcontext() as pool:
             if table:
                 writer = csv.writer(table, lineterminator='\n')
                 writer.writerow(OBJECT_COLUMNS)
