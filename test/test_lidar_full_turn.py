@@ -232,7 +232,7 @@ def test_a_seam_pair_that_starts_no_track_starts_each_side_on_its_own(monkeypatc
     late, early = seams[0]
     assert (late, early) in calls and (late, None) in calls and (early, None) in calls
     assert calls.index((late, early)) < calls.index((late, None))
-    assert not any(partner is not None for _, partner in calls if _ != late)
+    assert not any(partner is not None for cluster, partner in calls if cluster != late)
 
 
 def test_a_car_cut_in_two_at_the_seam_by_its_own_motion_is_one_track(monkeypatch):
