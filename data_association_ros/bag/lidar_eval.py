@@ -403,7 +403,8 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
         return 2
     try:
         seeds = parse_seeds(seeds_text)
-        base = TrackerConfig().with_values(**parse_values(parameters))
+        given = parse_values(parameters)
+        TrackerConfig().with_values(**given)  # checked once, before any seed runs
     except (ValueError, InvalidInputError) as error:
         print(f'da_lidar_eval: {error}', file=sys.stderr)
         return 2
@@ -421,8 +422,9 @@ def scene_report(kinds: Sequence[str], seeds_text: str, parameters: Sequence[str
                 writer = csv.writer(table, lineterminator='\n')
                 writer.writerow(OBJECT_COLUMNS)
             for kind in kinds:
-                result = evaluate_kind(
-                    kind, seeds, base, lidar=OTHER_LIDARS.get(lidar_name), pool=pool,
+                result = evaluate_kind(  # -p values win over the kind's preset
+                    kind, seeds, TrackerConfig(), lidar=OTHER_LIDARS.get(lidar_name),
+                    pool=pool, given=given,
                     progress=lambda text: print(text, file=sys.stderr, flush=True))
                 rows.append(summary_row(result, seeds))
                 notes.extend(worst_objects(result))
@@ -457,8 +459,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         help='name=value for every row (e.g. -p max_age=0.5)')
     parser.add_argument('--scenes', default='',
                         help='instead of a bag: generated scenes of these kinds (comma-separated, '
-                        f'of {", ".join(SCENE_KINDS)}), default parameters with the kind\'s size '
-                        'class; per kind the median and worst object')
+                        f'of {", ".join(SCENE_KINDS)}), default parameters with the preset of '
+                        'the kind\'s size class (core.lidar.PRESETS; a -p value wins over it); '
+                        'per kind the median and worst object')
     parser.add_argument('--seeds', default='100-129',
                         help='seeds of the generated scenes: A-B or a,b,c (default 100-129; the '
                         'tracker was tuned on 0-29)')

@@ -43,18 +43,22 @@ class KindResult:
     elapsed: np.ndarray
 
 
-def configuration(kind: str, base: TrackerConfig) -> TrackerConfig:
-    """The parameters of a kind: `base` with its size class's preset (core.lidar.PRESETS)."""
-    return base.with_values(**PRESETS[SIZE_OF_KIND[kind]])
+def configuration(kind: str, base: TrackerConfig, given: Optional[dict] = None
+                  ) -> TrackerConfig:
+    """The parameters of a kind: `base` with its size class's preset (core.lidar.PRESETS),
+    then the values `given` (a user's -p name=value: they win over the preset)."""
+    return base.with_values(**PRESETS[SIZE_OF_KIND[kind]]).with_values(**(given or {}))
 
 
 def evaluate_kind(kind: str, seeds: Sequence[int], base: TrackerConfig,
                   progress: Optional[Callable[[str], None]] = None,
-                  lidar: Optional[Lidar] = None, pool: Optional[Executor] = None) -> KindResult:
-    """Every seed's scene of `kind` through the core tracker, scored; seen by `lidar` instead
-    of the scene's own LiDAR when given (lidar_random_scene.OTHER_LIDARS); the seeds on the
-    processes of `pool` when given (the same scores; the times per scan then share the cores)."""
-    config = configuration(kind, base)
+                  lidar: Optional[Lidar] = None, pool: Optional[Executor] = None,
+                  given: Optional[dict] = None) -> KindResult:
+    """Every seed's scene of `kind` through the core tracker with configuration(kind, base,
+    given), scored; seen by `lidar` instead of the scene's own LiDAR when given
+    (lidar_random_scene.OTHER_LIDARS); the seeds on the processes of `pool` when given (the
+    same scores; the times per scan then share the cores)."""
+    config = configuration(kind, base, given)
     objects, elapsed = [], []
     mapped = (pool.map if pool is not None else map)(
         evaluate_seed, repeat(kind), seeds, repeat(config), repeat(lidar))
