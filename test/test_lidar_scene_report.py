@@ -75,7 +75,7 @@ def test_a_run_cut_short_leaves_no_objects_file(tmp_path, monkeypatch):
 
 
 def test_a_parameter_given_wins_over_the_kinds_preset(monkeypatch, capsys):
-    """-p nearest_cutoff=0.3 on an F1Tenth kind: the preset sets 0.1, and the value given is
+    """-p nearest_cutoff=0.2 on an F1Tenth kind: the preset sets 0.1, and the value given is
     the one the seeds run with (it was silently replaced by the preset's); the preset's other
     values and the defaults stay; an invalid value is refused before any seed runs."""
     seen = []
@@ -84,14 +84,14 @@ def test_a_parameter_given_wins_over_the_kinds_preset(monkeypatch, capsys):
         seen.append((kind, seed, config))
         return [], np.zeros(1)
     monkeypatch.setattr(lidar_seeds, 'evaluate_seed', spy)
-    assert main(['--scenes', 'race,car_static', '--seeds', '100', '-p', 'nearest_cutoff=0.3',
+    assert main(['--scenes', 'race,car_static', '--seeds', '100', '-p', 'nearest_cutoff=0.2',
                  '-p', 'min_pairs=4']) == 0
     (race_kind, _, race), (car_kind, _, car) = seen
     assert (race_kind, car_kind) == ('race', 'car_static')
-    assert (race.nearest_cutoff, race.min_pairs) == (0.3, 4)
+    assert (race.nearest_cutoff, race.min_pairs) == (0.2, 4)
     assert (race.size_class, race.fine, race.boundary_spacing) == ('f1tenth', 'nearest', 0.05)
-    assert (car.nearest_cutoff, car.min_pairs, car.size_class) == (0.3, 4, 'car')
-    assert car.fine == TrackerConfig().fine
+    assert (car.nearest_cutoff, car.min_pairs, car.size_class) == (0.2, 4, 'car')
+    assert car.fine == TrackerConfig().fine and TrackerConfig().nearest_cutoff != 0.2
     capsys.readouterr()
     seen.clear()
     assert main(['--scenes', 'race', '--seeds', '100', '-p', 'nearest_cutoff=-1']) == 2

@@ -197,7 +197,9 @@ class ObjectTrack:
     update count, time [s] and posterior (x, y, yaw) of the last update, and this scan's matched
     scan points; continues: it took over an older track's id; swung [rad]: the net heading
     change by the corrections since the rectangle was last fitted (EXTENT_SWING); published:
-    this track has been reported."""
+    this track has been reported; fitted: the centre (2,) of the rectangle last fitted to a
+    cluster, where the object was when those beams were taken (the two-point start's first
+    point; last is the posterior at the stamp)."""
 
     id: int
     filter: KalmanFilter | InteractingModels
@@ -215,6 +217,7 @@ class ObjectTrack:
     continues: bool = False
     swung: float = 0.0
     published: bool = False
+    fitted: np.ndarray = field(default_factory=lambda: np.zeros(2))
 
     def continue_from(self, old: 'ObjectTrack') -> None:
         """Take over old's id (the same object, found again by this track)."""
@@ -528,7 +531,7 @@ class LidarObjectTracker:
                 new.filter.x[:3] = [centre[0], centre[1], yaw]
                 new.length, new.width = length, width
                 new.anchor = anchor_in_box(cluster, centre, yaw)
-                new.last = new.filter.x[:3].copy()
+                new.last, new.fitted = new.filter.x[:3].copy(), centre.copy()
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
         new.filter.x[:2] -= late * new.filter.x[3:5]
 
@@ -940,7 +943,8 @@ class LidarObjectTracker:
         x0, p0 = at_stamp(np.array([centre[0], centre[1], yaw, 0.0, 0.0, 0.0]),
                           np.square(INITIAL_SIGMAS), late)
         track = ObjectTrack(self._next_id, motion_filter(x0, p0, self.config), length, width,
-                            anchor, updated=time, last=x0[:3].copy(), born=time)
+                            anchor, updated=time, last=x0[:3].copy(), born=time,
+                            fitted=np.array(centre, float))
         self.tracks.append(track)
         self._next_id += 1
         return track
@@ -963,12 +967,12 @@ class LidarObjectTracker:
         beam_time_measurement(late) (an F1Tenth car at 5.8 m/s seen 50 ms into a 10 Hz scan
         is 0.29 m ahead of its fit's centre at the stamp: farther than nearest_cutoff, so
         without it the next scan could not be matched and the track restarted on every scan,
-        never reported)."""
+        never reported); the velocity is read from fit to fit (track.fitted)."""
         fit = self._fit(cluster, occluded)
         if fit is None:
             return
         centre, yaw, length, width, anchor = fit
-        velocity = start_velocity(track.last[:2], centre, time - track.updated,
+        velocity = start_velocity(track.fitted, centre, time - track.updated,
                                   self.config.gate_probability)
         if velocity is None:
             return
@@ -979,7 +983,8 @@ class LidarObjectTracker:
         track.filter.x, track.filter.p = at_stamp(
             np.array([centre[0], centre[1], yaw, velocity[0], velocity[1], 0.0]), variances, late)
         track.length, track.width, track.anchor = length, width, anchor
-        track.updated, track.last = time, np.array([centre[0], centre[1], yaw])  # as _start's
+        track.updated, track.last = time, track.filter.x[:3].copy()
+        track.fitted = np.array(centre, float)
         track.votes = 0
 
 
