@@ -365,8 +365,7 @@ class LidarObjectTracker:
                 track.last = track.filter.x[:3].copy()
             elif track.hits == 1 and len(clusters) == 1 and not coasting:  # two-point start
                 piece, ends_hidden = self._one_sweep(labels, clusters[0], occluded)
-                self._restart(track, points[piece], ends_hidden, time,
-                              float(np.mean(self._offsets[piece])))
+                self._restart(track, points[piece], ends_hidden, time, self._late(piece))
             if track.updated == time or not coasting:
                 free[clusters] = False
             elif self._established(track):
@@ -405,7 +404,7 @@ class LidarObjectTracker:
             [occluded[cluster, 0], occluded[partner, 1]]
         if np.count_nonzero(member) < self.config.min_pairs or np.all(whole):
             return False  # too few returns, or maybe background between two shadows
-        late = float(np.mean(self._offsets[member]))
+        late = self._late(member)
         started = self._start(points[member], ends_hidden, time, late)
         if started is None:
             return False
@@ -414,6 +413,11 @@ class LidarObjectTracker:
         if old is not None:
             self._hand_over(old, started, late, points[member], ends_hidden)
         return True
+
+    def _late(self, member: np.ndarray) -> float:
+        """How long [s] after this scan's stamp the returns `member` (mask or indices) were
+        taken, on average: where a fit or a correction of them reads the object."""
+        return float(np.mean(self._offsets[member]))
 
     def _beyond(self, index: int, count: int) -> Optional[int]:
         """The beam `index` next to a cluster end (one before its first or after its last) of
@@ -788,7 +792,7 @@ class LidarObjectTracker:
         rows = slice(None) if config.velocity_measurement else slice(0, 3)
         # the points were moved back by the predicted velocity: z reads the position at the
         # stamp plus (v - predicted v) x the beams' mean offset (beam_time_measurement)
-        h = beam_time_measurement(float(np.mean(self._offsets[member])), elapsed)[rows]
+        h = beam_time_measurement(self._late(member), elapsed)[rows]
         track.filter.h = h
         track.filter.r = measurement_covariance(correction.covariance, elapsed,
                                                 config.measurement_sigmas())[rows, rows]
