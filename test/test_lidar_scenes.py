@@ -503,6 +503,39 @@ def test_two_point_start_reads_its_fit_at_the_time_the_points_were_taken():
     assert np.isclose(p[3, 3], variance) and np.isclose(p[2, 2], 0.2 ** 2)
 
 
+def test_hand_over_leaves_last_at_the_stamp_so_the_next_velocity_is_read_right():
+    """A coasting track at 6 m/s along x is found again by a track started from a rear face
+    whose points were taken late = 0.05 s after the stamp t = 0.1 s: the handed state's
+    position is the fit's centre c - late v (where the car was at the stamp), and last, which
+    the next update's velocity measurement is read from (velocity_measurement), is that
+    state.  A correction landing exactly on the car at t = 0.2 s then reads 6 m/s; with last
+    left at c, as before, it read (0.6 - 0.3) / 0.1 = 3 m/s."""
+    from data_association_ros.core.lidar.measurement import fictitious_measurement
+    from data_association_ros.core.transforms import estimate_rigid_transform
+    config = configuration('race', TrackerConfig(velocity_measurement=True))
+    tracker = LidarObjectTracker(config)
+    face = np.column_stack([np.full(9, 3.0), np.linspace(-0.15, 0.15, 9)])  # a rear face
+    hidden = np.array([False, False])
+    old = tracker._start(face, hidden, 0.0)
+    old.filter.x[3:5] = [6.0, 0.0]
+    new = tracker._start(face + [0.6, 0.0], hidden, 0.1, 0.05)
+    centre = tracker._fit(face + [0.6, 0.0], hidden)[0]
+    tracker._hand_over(old, new, 0.05)
+    assert tracker.tracks == [new] and new.id == old.id
+    np.testing.assert_allclose(new.filter.x[3:5], [6.0, 0.0], atol=1e-12)
+    at_stamp = centre - 0.05 * np.array([6.0, 0.0])
+    np.testing.assert_allclose(new.filter.x[:2], at_stamp, atol=1e-12)
+    np.testing.assert_allclose(new.last, new.filter.x[:3], atol=1e-12)
+    np.testing.assert_allclose(new.fitted, centre, atol=1e-12)
+    predicted = new.filter.x[:2] + 0.1 * new.filter.x[3:5]
+    truth = at_stamp + [0.6, 0.0]  # the car at t = 0.2 s
+    shift = estimate_rigid_transform(np.array([predicted, predicted + [1.0, 0.0]]),
+                                     np.array([truth, truth + [1.0, 0.0]]))
+    z = fictitious_measurement(predicted, new.filter.x[2], new.last[:2], new.last[2], shift,
+                               0.1)
+    np.testing.assert_allclose(z[3:5], [6.0, 0.0], atol=1e-9)
+
+
 def test_f1tenth_car_ahead_in_a_10hz_full_turn_is_tracked():
     """race seed 100 seen by a low-cost 360 deg LiDAR (360_10hz_coarse: 10 Hz, 0.5 deg):
     opponent 1, 3-4 m ahead at 5.76 m/s, is scanned 50 ms into each turn, 0.29 m ahead of

@@ -521,7 +521,8 @@ class LidarObjectTracker:
         returns of a car coming back from behind something fit either axis (car_static seed
         1021 object 1: 5 returns at 29 m fitted 90 deg off, the car's speed handed across it),
         but fit_at extends them away from the sensor, which may be the wrong way
-        (f1tenth_moving seed 1000 object 1, 2.4 m from the sensor: 0.5 m off)."""
+        (f1tenth_moving seed 1000 object 1, 2.4 m from the sensor: 0.5 m off).  Afterwards
+        last is the posterior at the stamp and fitted the fit's centre, as after _restart."""
         self.tracks = [t for t in self.tracks if t is not old]
         new.continue_from(old)
         self._next_id -= 1
@@ -535,9 +536,10 @@ class LidarObjectTracker:
                 new.filter.x[:3] = [centre[0], centre[1], yaw]
                 new.length, new.width = length, width
                 new.anchor = anchor_in_box(cluster, centre, yaw)
-                new.last, new.fitted = new.filter.x[:3].copy(), centre.copy()
+                new.fitted = centre.copy()
         new.filter.x[3:5] = handed_velocity(old.filter.x[3:5], new.filter.x[2])
         new.filter.x[:2] -= late * new.filter.x[3:5]
+        new.last = new.filter.x[:3].copy()
 
     def _established(self, track: ObjectTrack) -> bool:
         """Updated on min_hits scans, or continuing an older track's id (its object was
