@@ -35,8 +35,7 @@ def test_one_model_is_the_kalman_filter():
 
 def test_correct_is_each_models_correct_and_keeps_the_probabilities():
     """A pseudo-measurement (innovation and H from each model's own state) corrects every
-    model as KalmanFilter.correct does, with the fixed rows of the gains zeroed, and leaves
-    the model probabilities as they were."""
+    model as KalmanFilter.correct does, and leaves the model probabilities as they were."""
     imm = InteractingModels(X0, P0, [0.3, 0.7], switch_time=2.0)
     imm.h, imm.r = H, R
     imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)
@@ -47,9 +46,9 @@ def test_correct_is_each_models_correct_and_keeps_the_probabilities():
     def measure(x):
         return np.array([1.5 - x[1] ** 2]), np.array([[0.0, 2 * x[1]]])
 
-    imm.correct(measure, np.array([[0.2]]), fixed=(0,))
+    imm.correct(measure, np.array([[0.2]]))
     for model, alone in zip(imm.models, models):
-        alone.correct(*measure(alone.x), np.array([[0.2]]), fixed=(0,))
+        alone.correct(*measure(alone.x), np.array([[0.2]]))
         np.testing.assert_allclose(model.x, alone.x, rtol=1e-12)
         np.testing.assert_allclose(model.p, alone.p, rtol=1e-12)
     np.testing.assert_array_equal(imm.probabilities, probabilities)

@@ -22,21 +22,17 @@ def test_constant_velocity_predict_and_update_by_hand():
     np.testing.assert_allclose(kf.p, [[10 / 7, 2 / 7], [2 / 7, 1.5 - 1 / 7]])
 
 
-def test_a_consider_update_leaves_the_fixed_components_by_hand():
-    """P = [[2, 1], [1, 2]], H = [0, 1], R = 1, innovation 3: S = 3, K = [1/3, 2/3].  In full:
-    x = [1, 2], P = P - K S K^T = [[5/3, 1/3], [1/3, 2/3]].  With component 0 fixed, K = [0,
-    2/3]: x = [0, 2] and, in Joseph form, P = [[2, 1/3], [1/3, 2/3]] (its variance kept)."""
+def test_correct_with_an_innovation_and_its_jacobian_by_hand():
+    """P = [[2, 1], [1, 2]], H = [0, 1], R = 1, innovation 3: S = 3, K = [1/3, 2/3], x = [1, 2],
+    P = P - K S K^T = [[5/3, 1/3], [1/3, 2/3]] (the Joseph form gives the same); update(z)
+    with z - H x = 3 is the same correction."""
     p, h, r = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([[0.0, 1.0]]), np.array([[1.0]])
     full = KalmanFilter(np.zeros(2), p, np.eye(2), np.zeros((2, 2)), h, r)
     full.correct(np.array([3.0]), h, r)
     np.testing.assert_allclose(full.x, [1.0, 2.0])
     np.testing.assert_allclose(full.p, [[5 / 3, 1 / 3], [1 / 3, 2 / 3]])
-    consider = KalmanFilter(np.zeros(2), p, np.eye(2), np.zeros((2, 2)), h, r)
-    consider.correct(np.array([3.0]), h, r, fixed=(0,))
-    np.testing.assert_allclose(consider.x, [0.0, 2.0])
-    np.testing.assert_allclose(consider.p, [[2.0, 1 / 3], [1 / 3, 2 / 3]])
     update = KalmanFilter(np.zeros(2), p, np.eye(2), np.zeros((2, 2)), h, r)
-    update.update([3.0])  # z - H x = 3: the same as correct without fixed components
+    update.update([3.0])
     np.testing.assert_allclose(update.x, full.x)
     np.testing.assert_allclose(update.p, full.p)
 

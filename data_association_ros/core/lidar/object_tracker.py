@@ -41,9 +41,9 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    object wider than its size class allows, and turns the heading when the cluster already
    spreads across it that wide (plausible_turn); a track is reported only once
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
-   SETTLE_TIME unless its velocity is voting to turn it); a settled track's velocity is then
-   corrected towards its heading (no_slip, slip_sigma; heading and yaw rate kept); the
-   rectangle grows or moves to
+   SETTLE_TIME unless its velocity is voting to turn it); a settled track's velocity and
+   heading are then corrected towards each other (no_slip, slip_sigma); the rectangle grows or
+   moves to
    contain the matched points (shape.contain), and is cut back where beams pass through it
    (free_space.carve: a prior longer than the object); once the corrections have turned the
    heading by more than EXTENT_SWING since the rectangle was fitted, it is fitted anew along
@@ -119,8 +119,6 @@ FIT_SIGMA_PER_LENGTH = INITIAL_SIGMAS[0] / SIZE_CLASSES['car'][0]
 for a 0.55 m F1Tenth car): the two-point start's noise (fused_start_velocity)."""
 MOTION = np.array([0, 1, 3, 4])
 """Indices of x, y, vx, vy in the state (the same-object gate's components)."""
-HEADING = (2, 5)
-"""Indices of yaw and yaw_rate in the state (not corrected by no_slip)."""
 MAX_COORDINATE = 1e5
 """Points farther than this [m] on either axis count as no return."""
 FLIP_RATE = 0.25
@@ -1101,13 +1099,15 @@ def extent_covariance(yaw: float, length: float, width: float) -> np.ndarray:
 def no_slip(motion: KalmanFilter | InteractingModels, sigma: float) -> None:
     """Correct with the pseudo-measurement that the velocity has no component across the
     heading (measurement.lateral_velocity: an object drives along its length axis), std sigma
-    [m/s], heading and yaw rate taken as known (Schmidt's consider update: the rectangle fits
-    tell the heading, the constraint turns the velocity to it)."""
+    [m/s]: an EKF update with its full Jacobian, so heading, velocity and yaw rate move
+    towards each other by their variances (a few returns of one face tell the heading to
+    5-15 deg, the velocity of a car moving at speed tells it better; docs/lidar.md
+    "Twenty-sixth round")."""
     r = np.array([[sigma ** 2]])
     if isinstance(motion, InteractingModels):
-        motion.correct(lateral_velocity, r, fixed=HEADING)
+        motion.correct(lateral_velocity, r)
     else:
-        motion.correct(*lateral_velocity(motion.x), r, fixed=HEADING)
+        motion.correct(*lateral_velocity(motion.x), r)
 
 
 def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:

@@ -18,7 +18,7 @@ PRESETS = {
     'car': {},
     'f1tenth': {'size_class': 'f1tenth', 'fine': 'nearest', 'nearest_cutoff': 0.1,
                 'boundary_spacing': 0.05, 'max_size_ratio': 2.0,
-                'calm_yaw_accel_sigma': 0.5},
+                'calm_yaw_accel_sigma': 0.5, 'slip_sigma': 0.3},
     'pedestrian': {'size_class': 'pedestrian'},
 }
 """Parameter sets per setting (F1Tenth's also in config/lidar_f1tenth.yaml): F1Tenth racing
@@ -28,8 +28,10 @@ period on this 2-core machine; nearest is about 2-3x faster here) on a boundary 
 a calm motion model (white angular acceleration 0.5 rad/s^2/sqrt(Hz)) with the agile default
 (4): a small car far away shows a few returns of one face, whose heading scatters by 10-20 deg
 from scan to scan, and the agile model follows that scatter (docs/lidar.md, "Two motion
-models"). Pedestrians: the size class only (docs/lidar.md, "Pedestrians": nothing tuned for
-them yet)."""
+models"), and ties heading and velocity (slip_sigma 0.3 m/s: a few returns of a small car's
+face scatter its heading by 5-15 deg, its velocity at speed tells it better; docs/lidar.md
+"Twenty-sixth round"). Pedestrians: the size class only (docs/lidar.md, "Pedestrians":
+nothing tuned for them yet)."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
 
 
@@ -115,9 +117,9 @@ PARAMETERS = (
     _float('model_switch_time', 2.0, 'IMM: mean time an object keeps to one motion model [s]'),
     _float('slip_sigma', 0.0, 'a settled track is corrected with the pseudo-measurement that '
            'its velocity has no component across its heading (a car does not drive sideways), '
-           'with this std [m/s]; heading and yaw rate are not corrected by it, so a heading off '
-           'turns the velocity off with it; 0: off (docs/lidar.md "Tenth round": 0.3 tried)',
-           low_open=False),
+           'with this std [m/s]: heading, velocity and yaw rate move towards each other by '
+           'their variances; 0: off (the f1tenth preset: 0.3; docs/lidar.md "Twenty-sixth '
+           'round")', low_open=False),
     ParameterSpec('velocity_measurement', False, "the fictitious measurement includes the "
                   "velocity and yaw rate (the seed's); false: only x, y, yaw (the filter "
                   'differentiates)', kind=bool),

@@ -119,13 +119,13 @@ class InteractingModels:
         self._combine()
 
     def correct(self, measure: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-                r: np.ndarray, fixed: tuple[int, ...] = ()) -> None:
+                r: np.ndarray) -> None:
         """Every model's KalmanFilter.correct with (innovation (m,), H (m, n)) = measure(its
-        x) and R (m, m), the rows `fixed` of the gains zeroed; the probabilities are kept (a
-        constraint such as a pseudo-measurement, not evidence for one model)."""
+        x) and R (m, m); the probabilities are kept (a constraint such as a
+        pseudo-measurement, not evidence for one model)."""
         self._sync()
         for model in self.models:
-            model.correct(*measure(model.x), r, fixed)
+            model.correct(*measure(model.x), r)
         self._combine()
 
     def innovation_covariance(self) -> np.ndarray:

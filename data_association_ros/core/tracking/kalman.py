@@ -1,6 +1,6 @@
 """Linear Kalman filter: x' = F x, P' = F P F^T + Q;  K = P H^T S^-1, S = H P H^T + R,
-x += K (z - H x),  P = (I - K H) P (I - K H)^T + K R K^T (Joseph form, which holds for any gain:
-correct() may zero the gain's rows of components taken as known, Schmidt's consider update)."""
+x += K (z - H x),  P = (I - K H) P (I - K H)^T + K R K^T (Joseph form, which holds for
+any gain and keeps P positive semi-definite under rounding)."""
 from __future__ import annotations
 
 import numpy as np
@@ -28,14 +28,11 @@ class KalmanFilter:
         """Correct with measurement z (m,)."""
         self.correct(np.asarray(z, dtype=float) - self.h @ self.x, self.h, self.r)
 
-    def correct(self, innovation: np.ndarray, h: np.ndarray, r: np.ndarray,
-                fixed: tuple[int, ...] = ()) -> None:
+    def correct(self, innovation: np.ndarray, h: np.ndarray, r: np.ndarray) -> None:
         """Correct with an innovation (m,) of Jacobian H (m, n) and noise R (m, m) (an EKF's
-        z - h(x)); the gain's rows `fixed` are zeroed: those components are not corrected and
-        P keeps them consistent (Schmidt's consider update, Joseph form)."""
+        z - h(x)); P in Joseph form."""
         s = h @ self.p @ h.T + r
         gain = np.linalg.solve(s, h @ self.p).T  # P H^T S^-1 (S, P symmetric)
-        gain[list(fixed)] = 0.0
         self.x = self.x + gain @ innovation
         i_kh = np.eye(len(self.x)) - gain @ h
         self.p = i_kh @ self.p @ i_kh.T + gain @ r @ gain.T
