@@ -28,8 +28,8 @@ period on this 2-core machine; nearest is about 2-3x faster here) on a boundary 
 a calm motion model (white angular acceleration 0.5 rad/s^2/sqrt(Hz)) with the agile default
 (4): a small car far away shows a few returns of one face, whose heading scatters by 10-20 deg
 from scan to scan, and the agile model follows that scatter (docs/lidar.md, "Two motion
-models"), and ties heading and velocity (slip_sigma 0.3 m/s: a few returns of a small car's
-face scatter its heading by 5-15 deg, its velocity at speed tells it better; docs/lidar.md
+models"), and ties heading and velocity (slip_sigma 0.3 m/s: at 10 Hz the returns of one face
+turn a small car's box by 5-15 deg a scan, its velocity at speed tells it better; docs/lidar.md
 "Twenty-sixth round"). Pedestrians: the size class only (docs/lidar.md, "Pedestrians":
 nothing tuned for them yet)."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
