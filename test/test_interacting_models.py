@@ -3,7 +3,7 @@ out here by hand."""
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
-from scipy.stats import multivariate_normal
+from scipy.stats import chi2, multivariate_normal
 
 from data_association_ros.core.tracking import InteractingModels, KalmanFilter
 
@@ -79,6 +79,30 @@ def test_one_cycle_by_hand():
     p = sum(m * (pj + np.outer(xj - x, xj - x)) for m, (xj, pj) in zip(mu, updated))
     np.testing.assert_allclose(imm.x, x, rtol=1e-12)
     np.testing.assert_allclose(imm.p, p, rtol=1e-12, atol=1e-15)
+
+
+def test_smallest_nis_is_the_nis_of_the_model_nearest_the_measurement():
+    """After one update the calm and agile models differ; smallest_nis(z) is the smaller of
+    their NIS (z - H x_j)^2 / (H P_j H^T + R), each written out here.  z = 3.5 lies beyond the
+    99 % gate (6.63) of the calm model (8.2) and of the mixture (7.8), mostly calm (0.91), and
+    within the agile model's (5.4): the start of a manoeuvre passes."""
+    imm = InteractingModels(X0, P0, [0.95, 0.05], switch_time=20.0)
+    imm.h, imm.r = H, R
+    imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)
+    imm.update([0.6])
+    imm.predict(linear, [Q_CALM, Q_AGILE], 0.5)
+    z = np.array([3.5])
+    nis = [(3.5 - (H @ m.x)[0]) ** 2 / (H @ m.p @ H.T + R)[0, 0] for m in imm.models]
+    mixture = (3.5 - (H @ imm.x)[0]) ** 2 / imm.innovation_covariance()[0, 0]
+    assert np.isclose(imm.smallest_nis(z), nis[1], rtol=1e-12)
+    assert nis[1] < chi2.ppf(0.99, 1) < min(nis[0], mixture), (nis, mixture)
+    one = InteractingModels(X0, P0, [1.0], switch_time=1.0)
+    kf = KalmanFilter(X0, P0, F, Q_AGILE, H, R)
+    one.h, one.r = H, R
+    one.predict(linear, [Q_AGILE], 0.5)
+    kf.predict()
+    assert np.isclose(one.smallest_nis(z), (3.5 - (H @ kf.x)[0]) ** 2
+                      / kf.innovation_covariance()[0, 0], rtol=1e-12)
 
 
 def test_mixing_by_hand():

@@ -473,6 +473,17 @@ def test_measurement_and_process_noise_by_hand():
     q = process_noise(0.1, 2.0, 3.0)
     assert np.isclose(q[0, 0], 4 * 0.001 / 3) and np.isclose(q[0, 3], 4 * 0.01 / 2)
     assert np.isclose(q[5, 5], 9 * 0.1) and np.isclose(q[2, 5], 9 * 0.005) and q[0, 1] == 0
+    # 2 m/s^2 along a heading of 30 deg, 0.5 across it: density R diag(4, 0.25) R^T
+    c30, s30 = np.sqrt(3) / 2, 0.5
+    calm = process_noise(0.1, 2.0, 3.0, 0.5, np.pi / 6)
+    assert np.isclose(calm[0, 0], (4 * c30 ** 2 + 0.25 * s30 ** 2) * 0.001 / 3)
+    assert np.isclose(calm[1, 1], (4 * s30 ** 2 + 0.25 * c30 ** 2) * 0.001 / 3)
+    assert np.isclose(calm[0, 1], (4 - 0.25) * c30 * s30 * 0.001 / 3)
+    assert np.isclose(calm[1, 3], (4 - 0.25) * c30 * s30 * 0.01 / 2)
+    assert np.isclose(calm[4, 4], (4 * s30 ** 2 + 0.25 * c30 ** 2) * 0.1)
+    assert np.array_equal(calm[2::3, 2::3], q[2::3, 2::3])  # the yaw's untouched
+    along = np.array([c30, s30, 0, 0, 0, 0])
+    assert np.isclose(along @ calm @ along, 4 * 0.001 / 3)  # along the heading: 2 m/s^2
 
 
 def test_config_matches_the_parameter_list_and_rejects_bad_values():

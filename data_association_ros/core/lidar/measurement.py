@@ -13,6 +13,8 @@ terms unless velocity_measurement is set (README "LiDAR object tracking").
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
 from ..models.base import wrap_angle
@@ -55,17 +57,24 @@ def lateral_velocity(state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             np.array([[0.0, 0.0, -(c * vx + s * vy), -s, c, 0.0]]))
 
 
-def process_noise(dt: float, accel_sigma: float, yaw_accel_sigma: float) -> np.ndarray:
-    """Q (6, 6) of white (angular) acceleration with spectral densities accel_sigma^2
-    [m^2/s^3] and yaw_accel_sigma^2 [rad^2/s^3]: per (position, velocity) pair
-    q [[dt^3/3, dt^2/2], [dt^2/2, dt]]."""
+def process_noise(dt: float, accel_sigma: float, yaw_accel_sigma: float,
+                  lateral_sigma: Optional[float] = None, heading: float = 0.0) -> np.ndarray:
+    """Q (6, 6) of white (angular) acceleration: per (position, velocity) pair the spectral
+    density times [[dt^3/3, dt^2/2], [dt^2/2, dt]]; the density of (x, y) is accel_sigma^2 I
+    [m^2/s^3], or with lateral_sigma R(heading) diag(accel_sigma^2, lateral_sigma^2)
+    R(heading)^T (accel_sigma along the heading, lateral_sigma across it); that of yaw
+    yaw_accel_sigma^2 [rad^2/s^3]."""
+    density = accel_sigma ** 2 * np.eye(2)
+    if lateral_sigma is not None:
+        c, s = np.cos(heading), np.sin(heading)
+        turn = np.array([[c, -s], [s, c]])
+        density = turn @ np.diag([accel_sigma ** 2, lateral_sigma ** 2]) @ turn.T
     q = np.zeros((6, 6))
-    for position, density in ((0, accel_sigma ** 2), (1, accel_sigma ** 2),
-                              (2, yaw_accel_sigma ** 2)):
-        velocity = position + 3
-        q[position, position] = density * dt ** 3 / 3
-        q[position, velocity] = q[velocity, position] = density * dt ** 2 / 2
-        q[velocity, velocity] = density * dt
+    for axes, d in (([0, 1], density), ([2], np.array([[yaw_accel_sigma ** 2]]))):
+        rates = [a + 3 for a in axes]
+        q[np.ix_(axes, axes)] = d * dt ** 3 / 3
+        q[np.ix_(axes, rates)] = q[np.ix_(rates, axes)] = d * dt ** 2 / 2
+        q[np.ix_(rates, rates)] = d * dt
     return q
 
 

@@ -29,11 +29,12 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
 5. correct: estimate the rigid correction from the pairs (alignment: point_to_line, kabsch,
    ransac); form the fictitious measurement over the time since the track's last update and its
    noise (measurement); Kalman update with [x, y, yaw] (or, velocity_measurement, all six terms
-   as the seed), unless it fails the filter's chi-square gate; its points having been moved
-   back to the stamp by the predicted velocity v0, the position it reads is p + late (v - v0),
-   late the points' mean offset (beam_time_measurement; a track started at rest has the
-   matching covariance); after the update they are moved back again with the corrected
-   velocity for the shape steps below;
+   as the seed), unless it fails the filter's chi-square gate (with two motion models: that of
+   each, InteractingModels.smallest_nis, so a manoeuvre's first measurements pass); its points
+   having been moved back to the stamp by the predicted velocity v0, the position it reads is
+   p + late (v - v0), late the points' mean offset (beam_time_measurement; a track started at
+   rest has the matching covariance); after the update they are moved back again with the
+   corrected velocity for the shape steps below;
 6. the velocity settles the heading (heading_turn): when it points backwards (pi) or across
    (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
    turned round, or fitted anew along the velocity (shape.fit_at); before the heading is
@@ -797,8 +798,11 @@ class LidarObjectTracker:
         track.filter.r = measurement_covariance(correction.covariance, elapsed,
                                                 config.measurement_sigmas())[rows, rows]
         innovation = z[rows] - x[rows]
-        if innovation @ np.linalg.solve(track.filter.innovation_covariance(), innovation) > \
-                chi2_threshold(config.gate_probability, len(innovation)):
+        if isinstance(track.filter, InteractingModels):  # any model would take it
+            nis = track.filter.smallest_nis(z[rows] + h @ x - x[rows])
+        else:
+            nis = innovation @ np.linalg.solve(track.filter.innovation_covariance(), innovation)
+        if nis > chi2_threshold(config.gate_probability, len(innovation)):
             return False
         before = x[2]
         track.filter.update(z[rows] + h @ x - x[rows])  # its innovation at x: z - x
@@ -1074,11 +1078,13 @@ def motion_filter(x: np.ndarray, p: np.ndarray, config: TrackerConfig
 def predict(motion: KalmanFilter | InteractingModels, dt: float, config: TrackerConfig) -> None:
     """Predict the filter over dt [s]: the velocity turning with the yaw rate
     (turning_prediction), white (angular) acceleration (process_noise) of accel_sigma and
-    yaw_accel_sigma (and calm_yaw_accel_sigma: the IMM's calm model)."""
+    yaw_accel_sigma (and the IMM's calm model: calm_yaw_accel_sigma, and
+    calm_lateral_accel_sigma across the heading)."""
     if isinstance(motion, InteractingModels):
+        calm = process_noise(dt, config.accel_sigma, config.calm_yaw_accel_sigma,
+                             config.calm_lateral_accel_sigma or None, motion.x[2])
         motion.predict(lambda x: turning_prediction(x, dt),
-                       [process_noise(dt, config.accel_sigma, sigma) for sigma in
-                        (config.calm_yaw_accel_sigma, config.yaw_accel_sigma)], dt)
+                       [calm, process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)], dt)
         return
     predicted, motion.f = turning_prediction(motion.x, dt)
     motion.q = process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)

@@ -18,20 +18,21 @@ PRESETS = {
     'car': {},
     'f1tenth': {'size_class': 'f1tenth', 'fine': 'nearest', 'nearest_cutoff': 0.1,
                 'boundary_spacing': 0.05, 'max_size_ratio': 2.0,
-                'calm_yaw_accel_sigma': 0.5, 'slip_sigma': 0.3},
+                'calm_yaw_accel_sigma': 0.5, 'calm_lateral_accel_sigma': 1.0, 'slip_sigma': 0.3},
     'pedestrian': {'size_class': 'pedestrian'},
 }
-"""Parameter sets per setting (F1Tenth's also in config/lidar_f1tenth.yaml): F1Tenth racing
+"""Parameter sets per setting (F1Tenth's also in config/lidar_f1tenth.yaml).  F1Tenth racing:
 pairs points with the nearest boundary point within 0.1 m (JCBB takes most of a 25 ms scan
 period on this 2-core machine; nearest is about 2-3x faster here) on a boundary sampled every
 5 cm (a 0.55 m car), and takes anything longer than 1.1 m for the track's walls; an IMM mixes
-a calm motion model (white angular acceleration 0.5 rad/s^2/sqrt(Hz)) with the agile default
-(4): a small car far away shows a few returns of one face, whose heading scatters by 10-20 deg
-from scan to scan, and the agile model follows that scatter (docs/lidar.md, "Two motion
-models"), and ties heading and velocity (slip_sigma 0.3 m/s: at 10 Hz the returns of one face
-turn a small car's box by 5-15 deg a scan, its velocity at speed tells it better; docs/lidar.md
-"Twenty-sixth round"). Pedestrians: the size class only (docs/lidar.md, "Pedestrians":
-nothing tuned for them yet)."""
+a calm motion model (white angular acceleration 0.5 rad/s^2/sqrt(Hz), white acceleration
+across the heading 1 m/s^2/sqrt(Hz)) with the agile default (4 and 4): a small car far away
+shows a few returns of one face, whose heading scatters by 10-20 deg from scan to scan, and
+the agile model follows that scatter (docs/lidar.md, "Two motion models"; at 10 Hz the calm
+velocity averages them over more scans: "Twenty-seventh round"); heading and velocity are
+tied (slip_sigma 0.3 m/s: at 10 Hz the returns of one face turn a small car's box by 5-15 deg
+a scan, its velocity at speed tells it better; "Twenty-sixth round").  Pedestrians: the size
+class only (docs/lidar.md, "Pedestrians": nothing tuned for them yet)."""
 COARSE_METHODS = tuple(name for name, a in REGISTRY.items() if 'point_map' in a.models)
 
 
@@ -114,6 +115,10 @@ PARAMETERS = (
            'this white angular acceleration [rad/s^2/sqrt(Hz)], mixed with the yaw_accel_sigma '
            'one by an IMM (core/tracking/interacting_models.py; tracks started from then on); '
            '0: one model (the f1tenth preset: 0.5)', low_open=False),
+    _float('calm_lateral_accel_sigma', 0.0, 'the calm motion model (calm_yaw_accel_sigma): its '
+           'white acceleration across the heading [m/s^2/sqrt(Hz)] (along it: accel_sigma; a '
+           'car driving straight speeds up and brakes, it does not slide sideways); 0: '
+           'accel_sigma (the f1tenth preset: 1.0)', low_open=False),
     _float('model_switch_time', 2.0, 'IMM: mean time an object keeps to one motion model [s]'),
     _float('slip_sigma', 0.0, 'a settled track is corrected with the pseudo-measurement that '
            'its velocity has no component across its heading (a car does not drive sideways), '
@@ -169,6 +174,7 @@ class TrackerConfig:
     accel_sigma: float = 4.0
     yaw_accel_sigma: float = 4.0
     calm_yaw_accel_sigma: float = 0.0
+    calm_lateral_accel_sigma: float = 0.0
     model_switch_time: float = 2.0
     slip_sigma: float = 0.0
     velocity_measurement: bool = False

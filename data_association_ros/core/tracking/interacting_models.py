@@ -132,6 +132,20 @@ class InteractingModels:
         """S = H P H^T + R (m, m) of the mixture."""
         return self.h @ self.p @ self.h.T + self.r
 
+    def smallest_nis(self, z: np.ndarray) -> float:
+        """min over the models of (z - H x_j)^T S_j^-1 (z - H x_j), S_j = H P_j H^T + R: gated
+        on it, a measurement passes if any one model would take it (the mixture's covariance is
+        mostly the probable model's: a manoeuvre's first measurements fail its gate while the
+        agile model's would take them)."""
+        self._sync()
+        z = np.asarray(z, dtype=float)
+        nis = []
+        for model in self.models:
+            innovation = z - self.h @ model.x
+            nis.append(innovation @ np.linalg.solve(self.h @ model.p @ self.h.T + self.r,
+                                                    innovation))
+        return float(min(nis))
+
     def update(self, z: np.ndarray) -> None:
         """Every model's Kalman update with z (m,); the probabilities by their likelihoods."""
         self._sync()
