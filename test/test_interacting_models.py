@@ -96,6 +96,8 @@ def test_smallest_nis_is_the_nis_of_the_model_nearest_the_measurement():
     mixture = (3.5 - (H @ imm.x)[0]) ** 2 / imm.innovation_covariance()[0, 0]
     assert np.isclose(imm.smallest_nis(z), nis[1], rtol=1e-12)
     assert nis[1] < chi2.ppf(0.99, 1) < min(nis[0], mixture), (nis, mixture)
+    imm.models[1].p = -10.0 * np.eye(2)  # S < 0: that model takes nothing
+    assert np.isclose(imm.smallest_nis(z), nis[0], rtol=1e-12)
     one = InteractingModels(X0, P0, [1.0], switch_time=1.0)
     kf = KalmanFilter(X0, P0, F, Q_AGILE, H, R)
     one.h, one.r = H, R

@@ -85,7 +85,9 @@ PARAMETERS = (
     _float('bearing_sigma', 0.01, 'polar jnis: bearing std [rad]'),
     _float('nearest_cutoff', 0.3, 'fine nearest: largest pair distance [m]'),
     ParameterSpec('gate_probability', 0.99, 'chi-square gate of the coarse and fine '
-                  'associations', low=0.0, high=1.0, low_open=True, high_open=True),
+                  "associations and of a track's measurement (with two motion models: taken if "
+                  "either model's gate takes it, so a little more often than this)",
+                  low=0.0, high=1.0, low_open=True, high_open=True),
     _float('time_budget_ms', 0.0, 'JCBB search time budget per track and scan [ms] (0: none; '
            'results then depend on the machine)', low_open=False),
     _int('max_nodes', 500, 'JCBB search budget per track and scan in search nodes (0: none)',
@@ -115,10 +117,12 @@ PARAMETERS = (
            'this white angular acceleration [rad/s^2/sqrt(Hz)], mixed with the yaw_accel_sigma '
            'one by an IMM (core/tracking/interacting_models.py; tracks started from then on); '
            '0: one model (the f1tenth preset: 0.5)', low_open=False),
-    _float('calm_lateral_accel_sigma', 0.0, 'the calm motion model (calm_yaw_accel_sigma): its '
-           'white acceleration across the heading [m/s^2/sqrt(Hz)] (along it: accel_sigma; a '
-           'car driving straight speeds up and brakes, it does not slide sideways); 0: '
-           'accel_sigma (the f1tenth preset: 1.0)', low_open=False),
+    _float('calm_lateral_accel_sigma', 0.0, 'the calm motion model (calm_yaw_accel_sigma; '
+           'without it this has no effect): its white acceleration across the box\'s heading '
+           '[m/s^2/sqrt(Hz)] (along it: accel_sigma; a car driving straight speeds up and '
+           'brakes, it does not slide sideways; a box still 90 deg off, before the velocity '
+           'settles it, swaps the two); 0: accel_sigma (the f1tenth preset: 1.0)',
+           low_open=False),
     _float('model_switch_time', 2.0, 'IMM: mean time an object keeps to one motion model [s]'),
     _float('slip_sigma', 0.0, 'a settled track is corrected with the pseudo-measurement that '
            'its velocity has no component across its heading (a car does not drive sideways), '

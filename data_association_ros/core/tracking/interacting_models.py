@@ -136,14 +136,15 @@ class InteractingModels:
         """min over the models of (z - H x_j)^T S_j^-1 (z - H x_j), S_j = H P_j H^T + R: gated
         on it, a measurement passes if any one model would take it (the mixture's covariance is
         mostly the probable model's: a manoeuvre's first measurements fail its gate while the
-        agile model's would take them)."""
+        agile model's would take them).  A model whose S is not positive definite (a negative
+        NIS) takes nothing: inf."""
         self._sync()
         z = np.asarray(z, dtype=float)
         nis = []
         for model in self.models:
             innovation = z - self.h @ model.x
-            nis.append(innovation @ np.linalg.solve(self.h @ model.p @ self.h.T + self.r,
-                                                    innovation))
+            d2 = innovation @ np.linalg.solve(self.h @ model.p @ self.h.T + self.r, innovation)
+            nis.append(d2 if d2 >= 0 else np.inf)
         return float(min(nis))
 
     def update(self, z: np.ndarray) -> None:
