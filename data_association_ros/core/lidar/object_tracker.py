@@ -334,7 +334,7 @@ class LidarObjectTracker:
         dt = None if self.time is None else time - self.time
         before, self.time = self.time, time
         for track in self.tracks:
-            predict(track.filter, dt, config)
+            predict(track.filter, dt, config, track.settled)
             track.matched = np.zeros((0, 2))
         labels = cluster_consecutive(points, config.cluster_gap, config.min_cluster_points,
                                      FACE_SIGMAS * config.point_sigma, self._largest,
@@ -1075,14 +1075,17 @@ def motion_filter(x: np.ndarray, p: np.ndarray, config: TrackerConfig
     return KalmanFilter(x, p, np.eye(6), np.eye(6), np.eye(6), np.eye(6))
 
 
-def predict(motion: KalmanFilter | InteractingModels, dt: float, config: TrackerConfig) -> None:
+def predict(motion: KalmanFilter | InteractingModels, dt: float, config: TrackerConfig,
+            settled: bool = True) -> None:
     """Predict the filter over dt [s]: the velocity turning with the yaw rate
     (turning_prediction), white (angular) acceleration (process_noise) of accel_sigma and
-    yaw_accel_sigma (and the IMM's calm model: calm_yaw_accel_sigma, and
-    calm_lateral_accel_sigma across the heading)."""
+    yaw_accel_sigma (and the IMM's calm model: calm_yaw_accel_sigma, and, once the heading is
+    `settled` by the velocity, calm_lateral_accel_sigma across it: a box still 90 deg off
+    would hold the velocity back along its true direction)."""
     if isinstance(motion, InteractingModels):
-        calm = process_noise(dt, config.accel_sigma, config.calm_yaw_accel_sigma,
-                             config.calm_lateral_accel_sigma or None, motion.x[2])
+        lateral = (config.calm_lateral_accel_sigma or None) if settled else None
+        calm = process_noise(dt, config.accel_sigma, config.calm_yaw_accel_sigma, lateral,
+                             motion.x[2])
         motion.predict(lambda x: turning_prediction(x, dt),
                        [calm, process_noise(dt, config.accel_sigma, config.yaw_accel_sigma)], dt)
         return

@@ -120,8 +120,8 @@ PARAMETERS = (
     _float('calm_lateral_accel_sigma', 0.0, 'the calm motion model (calm_yaw_accel_sigma; '
            'without it this has no effect): its white acceleration across the box\'s heading '
            '[m/s^2/sqrt(Hz)] (along it: accel_sigma; a car driving straight speeds up and '
-           'brakes, it does not slide sideways; a box still 90 deg off, before the velocity '
-           'settles it, swaps the two); 0: accel_sigma (the f1tenth preset: 1.0)',
+           'brakes, it does not slide sideways; only once the velocity has settled the '
+           'heading, before that accel_sigma); 0: accel_sigma (the f1tenth preset: 1.0)',
            low_open=False),
     _float('model_switch_time', 2.0, 'IMM: mean time an object keeps to one motion model [s]'),
     _float('slip_sigma', 0.0, 'a settled track is corrected with the pseudo-measurement that '
