@@ -797,15 +797,16 @@ class LidarObjectTracker:
         track.filter.h = h
         track.filter.r = measurement_covariance(correction.covariance, elapsed,
                                                 config.measurement_sigmas())[rows, rows]
-        innovation = z[rows] - x[rows]
+        measured = z[rows] + h @ x - x[rows]  # its innovation at x: z - x
         if isinstance(track.filter, InteractingModels):  # any model would take it
-            nis = track.filter.smallest_nis(z[rows] + h @ x - x[rows])
+            nis = track.filter.smallest_nis(measured)
         else:
+            innovation = z[rows] - x[rows]
             nis = innovation @ np.linalg.solve(track.filter.innovation_covariance(), innovation)
-        if nis > chi2_threshold(config.gate_probability, len(innovation)):
+        if nis > chi2_threshold(config.gate_probability, len(measured)):
             return False
         before = x[2]
-        track.filter.update(z[rows] + h @ x - x[rows])  # its innovation at x: z - x
+        track.filter.update(measured)
         x = track.filter.x
         if moving:  # moved back again, with the corrected velocity
             points[member] += self._offsets[member, None] * (compensation - x[3:5])

@@ -20,7 +20,7 @@ model whose predicted probability c_j is 0 keeps its own state (no mixture to ta
 """
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -139,23 +139,25 @@ class InteractingModels:
         agile model's would take them).  A model whose S is not positive definite (a negative
         NIS) takes nothing: inf."""
         self._sync()
-        z = np.asarray(z, dtype=float)
         nis = []
-        for model in self.models:
-            innovation = z - self.h @ model.x
-            d2 = innovation @ np.linalg.solve(self.h @ model.p @ self.h.T + self.r, innovation)
+        for _, innovation, s in self._innovations(z):
+            d2 = innovation @ np.linalg.solve(s, innovation)
             nis.append(d2 if d2 >= 0 else np.inf)
         return float(min(nis))
+
+    def _innovations(self, z: np.ndarray
+                     ) -> Iterator[tuple[KalmanFilter, np.ndarray, np.ndarray]]:
+        """Per model (the model with this H and R, z - H x_j (m,), S_j (m, m))."""
+        z = np.asarray(z, dtype=float)
+        for model in self.models:
+            model.h, model.r = self.h, self.r
+            yield model, z - model.h @ model.x, model.innovation_covariance()
 
     def update(self, z: np.ndarray) -> None:
         """Every model's Kalman update with z (m,); the probabilities by their likelihoods."""
         self._sync()
-        z = np.asarray(z, dtype=float)
         logs = np.empty(len(self.models))
-        for j, model in enumerate(self.models):
-            model.h, model.r = self.h, self.r
-            s = model.innovation_covariance()
-            innovation = z - model.h @ model.x
+        for j, (model, innovation, s) in enumerate(self._innovations(z)):
             sign, log_det = np.linalg.slogdet(2 * np.pi * s)
             logs[j] = -0.5 * (innovation @ np.linalg.solve(s, innovation) + log_det) \
                 if sign > 0 else -np.inf
