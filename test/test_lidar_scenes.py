@@ -8,8 +8,9 @@ from hypothesis import given, settings, strategies as st
 
 from data_association_ros.bag.lidar_eval import run_offline, scans_from_messages, score
 from data_association_ros.bag.lidar_motion import Pieces, Stadium
-from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, KINDS, Scene,
-                                                         SceneObject, race_scene, random_scene)
+from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, KINDS,
+                                                         OTHER_LIDARS, Scene, SceneObject,
+                                                         race_scene, random_scene)
 from data_association_ros.bag.lidar_seeds import configuration
 from data_association_ros.core.lidar import (LidarObjectTracker, TrackerConfig, clustering,
                                              object_tracker)
@@ -312,7 +313,6 @@ def test_da_lidar_eval_lists_every_scene_kind():
     """--help's kinds (lidar_eval.SCENE_KINDS, kept without importing the generator) are
     lidar_random_scene.KINDS."""
     from data_association_ros.bag.lidar_eval import SCENE_KINDS, SCENE_LIDARS
-    from data_association_ros.bag.lidar_random_scene import OTHER_LIDARS
     assert SCENE_KINDS == tuple(KINDS)
     assert SCENE_LIDARS == tuple(OTHER_LIDARS)
 
@@ -536,6 +536,12 @@ def test_hand_over_leaves_last_at_the_stamp_so_the_next_velocity_is_read_right()
     np.testing.assert_allclose(z[3:5], [6.0, 0.0], atol=1e-9)
 
 
+def coarse_10hz_scans(kind: str, seed: int) -> list:
+    """The scans of a kind's scene of `seed` seen by 360_10hz_coarse (10 Hz, 0.5 deg, 2 cm)."""
+    scene = dataclasses.replace(KINDS[kind](seed), lidar=OTHER_LIDARS['360_10hz_coarse'])
+    return scans_from_messages(scene.messages())
+
+
 def test_f1tenth_car_ahead_in_a_10hz_full_turn_is_tracked():
     """race seed 100 seen by a low-cost 360 deg LiDAR (360_10hz_coarse: 10 Hz, 0.5 deg):
     opponent 1, 3-4 m ahead at 5.76 m/s, is scanned 50 ms into each turn, 0.29 m ahead of
@@ -549,9 +555,7 @@ def test_f1tenth_car_ahead_in_a_10hz_full_turn_is_tracked():
     velocity_measurement and calm_lateral_accel_sigma 1.0 together: two ids, docs/lidar.md
     "Twenty-seventh round"; the rule checked here is `last`'s, so the calm model is isotropic
     there.)"""
-    from data_association_ros.bag.lidar_random_scene import OTHER_LIDARS
-    scene = dataclasses.replace(KINDS['race'](100), lidar=OTHER_LIDARS['360_10hz_coarse'])
-    scans = scans_from_messages(scene.messages())
+    scans = coarse_10hz_scans('race', 100)
     estimates, _ = run_offline(scans, configuration('race', TrackerConfig()))
     result = score(scans, estimates)[1]
     assert result.track_ids == [1] and result.coverage > 0.85, result
@@ -570,9 +574,7 @@ def test_an_f1tenth_car_seen_at_10hz_keeps_its_heading_by_its_velocity():
     there, heading RMSE 3.8 deg; position 0.033 -> 0.021 m.  Its calm model, calm across the
     heading since (calm_lateral_accel_sigma 1.0, with the gate of either model), steadies the
     velocity further: the preset now 3.6 deg, 5.3 without the slip, 13.5 without either."""
-    from data_association_ros.bag.lidar_random_scene import OTHER_LIDARS
-    scene = dataclasses.replace(KINDS['race'](123), lidar=OTHER_LIDARS['360_10hz_coarse'])
-    scans = scans_from_messages(scene.messages())
+    scans = coarse_10hz_scans('race', 123)
     config = configuration('race', TrackerConfig())
     assert config.slip_sigma == 0.3
     result = score(scans, run_offline(scans, config)[0])[1]
@@ -594,10 +596,7 @@ def test_a_calm_model_calm_across_the_heading_steadies_f1tenth_cars_seen_at_10hz
     only (along it by accel_sigma): 3.1 / 5.3 deg, 0.022 / 0.046 m (4.5 deg for car 3 with the
     lateral noise from its start on, which lets a box still 90 deg off hold the velocity back:
     f1tenth_static 213/1 at 40 Hz 0.7 -> 9.5 deg)."""
-    from data_association_ros.bag.lidar_random_scene import OTHER_LIDARS
-    scene = dataclasses.replace(KINDS['f1tenth_static'](111),
-                                lidar=OTHER_LIDARS['360_10hz_coarse'])
-    scans = scans_from_messages(scene.messages())
+    scans = coarse_10hz_scans('f1tenth_static', 111)
     config = configuration('f1tenth_static', TrackerConfig())
     assert config.calm_lateral_accel_sigma == 1.0 and config.calm_yaw_accel_sigma > 0
     calm, isotropic = (score(scans, run_offline(scans, c)[0]) for c in
