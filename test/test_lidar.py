@@ -233,6 +233,7 @@ from data_association_ros.core.errors import InvalidInputError  # noqa: E402
 from data_association_ros.core.lidar import (PARAMETERS, LidarObjectTracker,  # noqa: E402
                                              TrackerConfig, cluster_ends)
 from data_association_ros.core.lidar.alignment import (EdgePoint,  # noqa: E402
+                                                       gated_edges,
                                                        point_to_line_correction,
                                                        rigid_correction)
 from data_association_ros.core.lidar.fine import boundary_covariance, match  # noqa: E402
@@ -306,6 +307,33 @@ def test_a_car_leaving_the_range_keeps_its_heading_and_velocity():
         assert x[3:5] @ heading > 3.0, (k, returns, x)
 
 
+def test_edges_are_gated_against_their_nearest_visible_corner_by_hand():
+    """gated_edges by hand: a 2 m x 1 m box at the origin; an edge point 0.05 m past corner
+    0 (1, 0.5) along +x, spacing 0.1 m, so its expected corner e + h/2 d = (1.1, 0.5) is 0.1 m
+    from that corner.  With sigma 0.02 m its own covariance is diag(0.02^2 + 0.1^2 / 12,
+    0.02^2) (returned inverted); the gate adds the pose's (std 0.1 m, 0.1 rad) through
+    A = [I, J (k - c)], J (k - c) = (-0.5, 1).  It passes a gate just above its squared
+    distance, not one just below; an edge 2 m from every corner is left out."""
+    centre = np.array([0.0, 0.0])
+    box = corners(centre, 0.0, 2.0, 1.0)   # corner 0 at (1, 0.5)
+    near_edge = EdgePoint(np.array([1.05, 0.5]), np.array([1.0, 0.0]), 0.1)
+    far_edge = EdgePoint(np.array([3.0, 2.0]), np.array([0.0, 1.0]), 0.1)
+    pose = np.diag([0.1 ** 2, 0.1 ** 2, 0.1 ** 2])
+    expected, corner, information = gated_edges([near_edge, far_edge], box, centre, pose,
+                                                0.02, 13.8)
+    np.testing.assert_allclose(expected, [[1.1, 0.5]])
+    np.testing.assert_allclose(corner, [[1.0, 0.5]])
+    measurement = np.diag([0.02 ** 2 + 0.1 ** 2 / 12, 0.02 ** 2])
+    np.testing.assert_allclose(information[0], np.linalg.inv(measurement))
+    # J (k - c) = (-0.5, 1): the yaw moves the corner by 0.1 x that
+    total = measurement + pose[:2, :2] + 0.1 ** 2 * np.outer([-0.5, 1.0], [-0.5, 1.0])
+    d2 = np.array([0.1, 0.0]) @ np.linalg.solve(total, [0.1, 0.0])
+    tight = gated_edges([near_edge], box, centre, pose, 0.02, 0.99 * d2)
+    assert len(gated_edges([near_edge], box, centre, pose, 0.02, 1.01 * d2)[0]) == 1
+    assert len(tight[0]) == 0 and tight[2].shape == (0, 2, 2)
+    assert len(gated_edges([], box, centre, pose, 0.02, 13.8)[0]) == 0
+
+
 def test_visible_faces_and_their_samples():
     ahead = corners(np.array([10.0, 0.0]), 0.0, 4.0, 2.0)
     np.testing.assert_array_equal(visible_faces(ahead), [False, True, False, False])  # rear
@@ -319,6 +347,23 @@ def test_visible_faces_and_their_samples():
     assert on_rear.sum() == 8 and on_left.sum() == 15 and len(samples) == 22
     for corner in ([8, -4], [8, -2], [12, -2]):
         assert np.min(np.hypot(*(samples - corner).T)) < 1e-9
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-np.pi, np.pi), st.floats(-3.0, 3.0), st.floats(-3.0, 3.0))
+def test_a_face_a_whole_number_of_spacings_long_is_sampled_the_same_at_any_pose(yaw, x, y):
+    """An F1Tenth car's prior box (0.55 x 0.30 m) sampled every 0.05 m, 5 m ahead and turned
+    anywhere: each visible face has exactly 11 or 6 steps (12 or 7 points, a shared corner
+    once), never one more because the rotated length came out a bit over 11 spacings."""
+    box = corners(np.array([5.0 + x, y]), yaw, 0.55, 0.30)
+    samples = sample_visible(box, 0.05)
+    visible = visible_faces(box)
+    expected = sum(12 if face % 2 == 0 else 7 for face in np.flatnonzero(visible)) \
+        - (visible.sum() - 1)
+    assert len(samples) == expected
+    gaps = np.hypot(*(samples[:, None] - samples[None]).transpose(2, 0, 1))
+    np.fill_diagonal(gaps, np.inf)
+    assert np.all(gaps.min(axis=1) <= 0.05 * (1 + 1e-9))
 
 
 def scan_of(box_corners, angles=np.deg2rad(np.arange(-90, 90, 0.25))):

@@ -3,14 +3,17 @@ returns, the rectangle cut back where beams pass through it, and what it does to
 shorter than the size prior (issue 21's largest group of full-size failures)."""
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from data_association_ros.bag.lidar_motion import Pieces
 from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, Scene,
                                                          SceneObject)
 from data_association_ros.bag.lidar_seeds import configuration
 from data_association_ros.core.lidar import LidarObjectTracker, TrackerConfig, object_tracker
-from data_association_ros.core.lidar.free_space import (RANGE_SHARE, beam_directions, beams,
-                                                        blocked_share, carve, face_end_limit)
+from data_association_ros.core.lidar.clustering import FACE_SLOPE, FACE_STEPS
+from data_association_ros.core.lidar.free_space import (RANGE_SHARE, _line_run, beam_directions,
+                                                        beams, blocked_share, carve,
+                                                        face_end_limit)
 from data_association_ros.core.lidar.shape import fit_at
 from data_association_ros.bag.lidar_eval import run_offline, scans_from_messages, score
 
@@ -63,6 +66,40 @@ def slack(origin, target, tolerance=0.1):
     d = max(abs(target[0] + 0.4), abs(target[1] + 0.4)) if abs(direction[1]) < abs(
         direction[0]) else abs(target[1] - 0.4)
     return 0.2 * tolerance * np.sqrt(0.2 + d ** 2 / 6.4) / sine
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(3, 5), st.floats(-np.pi, np.pi), st.floats(0.01, 0.3),
+       st.floats(0.0, 0.05), st.integers(0, 2 ** 32 - 1))
+def test_face_line_fit_is_the_least_squares_line_of_svd(count, heading, step, noise, seed):
+    """face_end_limit's run test (_line_run, in plain floats) against numpy: returns along a
+    line at `heading`, `step` [m] apart with `noise` across; its direction is the centred
+    run's first right singular vector (up to sign), its residuals the returns' distances
+    across it, and it refuses the run exactly when a residual exceeds the tolerance, a step
+    turns more than FACE_SLOPE off the line or a step is not FACE_STEPS x the one before."""
+    rng = np.random.default_rng(seed)
+    axis = np.array([np.cos(heading), np.sin(heading)])
+    run = np.cumsum(step * rng.uniform(0.6, 1.6, count))[:, None] * axis \
+        + rng.normal(0.0, noise, count)[:, None] * [-axis[1], axis[0]]
+    tolerance = 0.02
+    fit = _line_run(run[:, 0].tolist(), run[:, 1].tolist(), tolerance)
+    centre = run.mean(axis=0)
+    along, normal = np.linalg.svd(run - centre)[2]
+    residuals = (run - centre) @ normal
+    steps = np.diff(run, axis=0)
+    lengths = np.hypot(*steps.T)
+    ratios = lengths[1:] / lengths[:-1]
+    margins = np.concatenate([tolerance - np.abs(residuals),
+                              FACE_SLOPE * np.abs(steps @ along) - np.abs(steps @ normal),
+                              ratios - FACE_STEPS[0], FACE_STEPS[1] - ratios])
+    if np.min(np.abs(margins)) < 1e-9:
+        return  # on a limit: either answer is right
+    assert (fit is None) == bool(np.any(margins < 0))
+    if fit is not None:
+        np.testing.assert_allclose(fit[0], centre, atol=1e-12)
+        assert abs(abs(np.dot(fit[1], along)) - 1.0) < 1e-9
+        sign = np.sign(np.dot(fit[2], normal))
+        np.testing.assert_allclose(sign * np.array(fit[3]), residuals, atol=1e-9)
 
 
 def test_face_end_limit_by_hand():

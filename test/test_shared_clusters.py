@@ -142,3 +142,34 @@ def test_split_matches_the_ray_cast_objects(distance, bearing, yaw, gap, shift, 
         else:                              # one object's: whole, nothing added to it
             assert len(set(split[inside])) == 1
             assert np.array_equal(split == split[inside][0], inside)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1))
+def test_reaching_keeps_every_box_a_cluster_return_lies_within(seed):
+    """Boxes.reaching against brute force: random clusters and boxes (some moving, returns
+    taken up to 25 ms after the stamp); every box that holds a moved-back return of a cluster
+    within its margin (distances) is kept for that cluster, and a box is kept exactly when its
+    centre lies within the cluster's circle grown as the docstring says."""
+    rng = np.random.default_rng(seed)
+    points = rng.uniform(-3.0, 3.0, size=(60, 2))
+    labels = rng.integers(-1, 4, size=60)
+    offsets = rng.uniform(0.0, 0.025, size=60)
+    boxes = Boxes(rng.uniform(-3.0, 3.0, size=(5, 2)), rng.uniform(-np.pi, np.pi, 5),
+                  rng.uniform(0.1, 1.0, size=(5, 2)), rng.normal(0.0, 5.0, size=(5, 2)),
+                  rng.uniform(0.0, 0.3, 5))
+    count = int(labels.max()) + 1
+    reaching = boxes.reaching(points, labels, offsets, count)
+    assert reaching.shape == (count, 5)
+    near = boxes.distances(points, offsets) <= boxes.margins[None]
+    for cluster in range(count):
+        member = labels == cluster
+        if not member.any():
+            continue
+        assert np.all(reaching[cluster] >= near[member].any(axis=0))
+        mean = points[member].mean(axis=0)
+        reach = np.max(np.hypot(*(points[member] - mean).T)) + np.hypot(*boxes.halves.T) \
+            + boxes.margins + np.hypot(*boxes.velocities.T) * np.max(offsets[member])
+        gap = np.hypot(*(boxes.centres - mean).T)
+        decided = np.abs(gap - reach) > 1e-9
+        assert np.array_equal(reaching[cluster][decided], (gap <= reach)[decided])

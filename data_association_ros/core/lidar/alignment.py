@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 from ..transforms import estimate_rigid_transform, ransac_rigid_transform
-from .shape import faces, rotation, visible_faces
+from .shape import rotation, seen_faces
 
 TRANSFORMS = ('point_to_line', 'kabsch', 'ransac')
 J = np.array([[0.0, -1.0], [1.0, 0.0]])
@@ -77,6 +77,33 @@ def rigid_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.ndarray,
     return from_rigid(transform, np.asarray(centre, float))
 
 
+def gated_edges(edges: list[EdgePoint], corners: np.ndarray, centre: np.ndarray,
+                pose_covariance: np.ndarray, sigma: float, gate: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """point_to_line_correction's edge residuals: (expected (E, 2), model corner (E, 2),
+    information (E, 2, 2)) of the edges whose expected corner e + h/2 d lies within `gate`
+    (squared Mahalanobis distance) of the nearest of `corners` (k, 2), with covariance
+    sigma^2 I + h^2 / 12 d d^T + A pose_covariance A^T, A = [I, J (k - centre)]; the
+    information is the inverse of the first two terms."""
+    if not edges or not len(corners):
+        return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2, 2))
+    outward = np.array([edge.outward for edge in edges], float)
+    spacing = np.array([edge.spacing for edge in edges], float)
+    expected = np.array([edge.point for edge in edges], float) + outward * spacing[:, None] / 2
+    covariance = sigma ** 2 * np.eye(2) + (spacing ** 2 / 12)[:, None, None] * (
+        outward[:, :, None] * outward[:, None, :])
+    offsets = corners[None] - expected[:, None]
+    corner = corners[np.argmin(np.hypot(offsets[..., 0], offsets[..., 1]), axis=1)]
+    a = np.zeros((len(edges), 2, 3))
+    a[:, :, :2] = np.eye(2)
+    a[:, :, 2] = (corner - centre) @ J.T
+    innovation = expected - corner
+    total = covariance + a @ pose_covariance @ a.transpose(0, 2, 1)
+    inside = np.einsum('ed,ed->e', innovation,
+                       np.linalg.solve(total, innovation[:, :, None])[:, :, 0]) <= gate
+    return expected[inside], corner[inside], np.linalg.inv(covariance[inside])
+
+
 def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.ndarray,
                              corner_points: np.ndarray, edges: list[EdgePoint],
                              centre: np.ndarray, pose_covariance: np.ndarray, sigma: float,
@@ -99,9 +126,8 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
     information matrix.
     """
     centre = np.asarray(centre, float)
-    start, direction, length = faces(corner_points)
+    start, direction, length, visible = seen_faces(corner_points, sensor)
     normal = np.column_stack([direction[:, 1], -direction[:, 0]])
-    visible = visible_faces(corner_points, sensor)
     s, b = scan[pairs[:, 0]], boundary[pairs[:, 1]]
     # faces within reach of b (its distance to the segment), the one whose line is nearest to s
     along = np.einsum('nfd,fd->nf', b[:, None, :] - start[None], direction)
@@ -114,21 +140,8 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
     s, b, n = s[keep], b[keep], normal[face[keep]]
     b = b - n * across[keep, face[keep]][:, None]   # onto the face's line (within reach of it)
     corner_ids = np.flatnonzero(visible | np.roll(visible, 1))  # corners of visible faces
-    edge_rows = []
-    for edge in edges:
-        expected = edge.point + edge.outward * edge.spacing / 2
-        covariance = sigma ** 2 * np.eye(2) + edge.spacing ** 2 / 12 * np.outer(
-            edge.outward, edge.outward)
-        k = corner_points[corner_ids]
-        nearest = int(np.argmin(np.hypot(*(k - expected).T))) if len(k) else -1
-        if nearest < 0:
-            continue
-        corner = k[nearest]
-        a = np.hstack([np.eye(2), (J @ (corner - centre))[:, None]])
-        innovation = expected - corner
-        total = covariance + a @ pose_covariance @ a.T
-        if innovation @ np.linalg.solve(total, innovation) <= gate:
-            edge_rows.append((expected, corner, np.linalg.inv(covariance)))
+    expected, corner, weight = gated_edges(edges, corner_points[corner_ids], centre,
+                                           pose_covariance, sigma, gate)
     prior = np.diag(1.0 / np.square(prior_sigmas))
     p = np.zeros(3)
     for _ in range(iterations):
@@ -142,12 +155,15 @@ def point_to_line_correction(scan: np.ndarray, boundary: np.ndarray, pairs: np.n
         jac[:, 2] = -np.einsum('nd,nd->n', n, local @ (J @ r_inv).T)
         information = prior + jac.T @ jac / sigma ** 2
         gradient = prior @ p + jac.T @ residual / sigma ** 2
-        for expected, corner, weight in edge_rows:
+        if len(expected):
             local_e = expected - centre - p[:2]
-            r_e = r_inv @ local_e + centre - corner
-            j_e = np.hstack([-r_inv, (-J @ r_inv @ local_e)[:, None]])
-            information += j_e.T @ weight @ j_e
-            gradient += j_e.T @ weight @ r_e
+            r_e = local_e @ r_inv.T + centre - corner
+            j_e = np.empty((len(expected), 2, 3))
+            j_e[:, :, :2] = -r_inv
+            j_e[:, :, 2] = -(local_e @ (J @ r_inv).T)
+            weighted = weight @ j_e   # W_e J_e (E, 2, 3); W_e symmetric
+            information += np.einsum('eji,ejk->ik', j_e, weighted)
+            gradient += np.einsum('eji,ej->i', weighted, r_e)
         step = np.linalg.solve(information, gradient)
         p = p - step
         if np.abs(step).max() < 1e-9:

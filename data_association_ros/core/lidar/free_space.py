@@ -10,6 +10,7 @@ high_v]; a ray passes through it when its free part meets the box (slab test).
 """
 from __future__ import annotations
 
+import math
 from typing import Optional
 
 import numpy as np
@@ -253,20 +254,15 @@ def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, 
     direction = np.asarray(direction, float)
     if len(face) < 3 or not np.all(np.isfinite(direction)) or np.isnan(free):
         return None
-    for count in range(min(len(face), FACE_POINTS), 2, -1):  # the longest run that is a line
-        run = face[-count:]
-        centre = run.mean(axis=0)
-        along, normal = np.linalg.svd(run - centre)[2]
-        steps = np.diff(run, axis=0)
-        lengths = np.hypot(steps[:, 0], steps[:, 1])
-        residuals = (run - centre) @ normal
-        ratios = lengths[1:] / np.maximum(lengths[:-1], 1e-12)
-        if np.max(np.abs(residuals)) <= tolerance and np.all(
-                np.abs(steps @ normal) <= FACE_SLOPE * np.abs(steps @ along)) and np.all(
-                (ratios >= FACE_STEPS[0]) & (ratios <= FACE_STEPS[1])):
+    xs, ys = face[-FACE_POINTS:, 0].tolist(), face[-FACE_POINTS:, 1].tolist()
+    for count in range(len(xs), 2, -1):  # the longest run that is a line
+        fit = _line_run(xs[-count:], ys[-count:], tolerance)
+        if fit is not None:
             break
     else:
         return None
+    centre, along, normal, residuals = (np.array(value) for value in fit)
+    run = face[-count:]
     spread = (run - centre) @ along
     extent = float(np.ptp(spread))
     if extent < 2 * tolerance:
@@ -289,3 +285,33 @@ def face_end_limit(face: np.ndarray, origin: np.ndarray, direction: np.ndarray, 
     slack = FACE_SLACK_STDS * noise * np.sqrt(1.0 / len(spread) + offset ** 2 / (spread @ spread)) \
         / abs(towards)
     return k, side, float(point[k] + (slack if side else -slack) * abs(along[k]))
+
+
+def _line_run(xs: list, ys: list, tolerance: float) -> Optional[tuple]:
+    """face_end_limit's test of one run of returns (3-5, in plain floats: numpy's overhead on
+    arrays this small was most of a scan's face tests): (centre, unit direction, unit normal,
+    residuals across) of its least-squares line, or None when a return lies farther than
+    `tolerance` [m] from that line, a step turns more than FACE_SLOPE from it or a step is not
+    FACE_STEPS times the one before.  The direction is the scatter matrix's major axis, at
+    0.5 atan2(2 s_xy, s_xx - s_yy) (the first right singular vector of the centred run)."""
+    n = len(xs)
+    cx, cy = sum(xs) / n, sum(ys) / n
+    dx, dy = [x - cx for x in xs], [y - cy for y in ys]
+    angle = 0.5 * math.atan2(2.0 * sum(a * b for a, b in zip(dx, dy)),
+                             sum(a * a for a in dx) - sum(b * b for b in dy))
+    ax, ay = math.cos(angle), math.sin(angle)
+    nx, ny = -ay, ax
+    residuals = [a * nx + b * ny for a, b in zip(dx, dy)]
+    if max(abs(r) for r in residuals) > tolerance:
+        return None
+    previous = None
+    for i in range(n - 1):
+        sx, sy = xs[i + 1] - xs[i], ys[i + 1] - ys[i]
+        if abs(sx * nx + sy * ny) > FACE_SLOPE * abs(sx * ax + sy * ay):
+            return None
+        length = math.hypot(sx, sy)
+        if previous is not None and not (
+                FACE_STEPS[0] <= length / max(previous, 1e-12) <= FACE_STEPS[1]):
+            return None
+        previous = length
+    return (cx, cy), (ax, ay), (nx, ny), residuals

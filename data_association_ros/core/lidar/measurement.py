@@ -18,6 +18,7 @@ from typing import Optional
 import numpy as np
 
 from ..models.base import wrap_angle
+from .shape import rotation
 
 
 def transition(dt: float) -> np.ndarray:
@@ -31,7 +32,6 @@ def turning_prediction(state: np.ndarray, dt: float) -> tuple[np.ndarray, np.nda
     """(predicted state (6,), Jacobian F (6, 6)) of the velocity turning with the yaw rate w
     (a car on a curve): v' = R(w dt) v, position += R(w dt / 2) v dt, yaw += w dt; for w = 0
     it is transition(dt)."""
-    from .shape import rotation
     w, v = state[5], state[3:5]
     half, full = rotation(w * dt / 2), rotation(w * dt)
     j = np.array([[0.0, -1.0], [1.0, 0.0]])
@@ -69,12 +69,11 @@ def process_noise(dt: float, accel_sigma: float, yaw_accel_sigma: float,
         c, s = np.cos(heading), np.sin(heading)
         turn = np.array([[c, -s], [s, c]])
         density = turn @ np.diag([accel_sigma ** 2, lateral_sigma ** 2]) @ turn.T
-    q = np.zeros((6, 6))
-    for axes, d in (([0, 1], density), ([2], np.array([[yaw_accel_sigma ** 2]]))):
-        rates = [a + 3 for a in axes]
-        q[np.ix_(axes, axes)] = d * dt ** 3 / 3
-        q[np.ix_(axes, rates)] = q[np.ix_(rates, axes)] = d * dt ** 2 / 2
-        q[np.ix_(rates, rates)] = d * dt
+    d = np.zeros((3, 3))   # of (x, y, yaw); the state is (x, y, yaw, vx, vy, yaw rate)
+    d[:2, :2], d[2, 2] = density, yaw_accel_sigma ** 2
+    q = np.empty((6, 6))
+    q[:3, :3], q[3:, 3:] = d * dt ** 3 / 3, d * dt
+    q[:3, 3:] = q[3:, :3] = d * dt ** 2 / 2
     return q
 
 

@@ -36,27 +36,39 @@ def faces(corner_points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 def visible_faces(corner_points: np.ndarray, sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
     """(4,) bool: the faces whose outward normal points towards the sensor."""
+    return seen_faces(corner_points, sensor)[3]
+
+
+def seen_faces(corner_points: np.ndarray, sensor: np.ndarray = np.zeros(2)
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """faces(corner_points) and visible_faces(corner_points, sensor) at once: (start (4, 2),
+    unit direction (4, 2), length (4,), visible (4,) bool)."""
     start, direction, length = faces(corner_points)
     normal = np.column_stack([direction[:, 1], -direction[:, 0]])
     middle = start + direction * length[:, None] / 2
-    return np.einsum('fd,fd->f', normal, sensor - middle) > 0
+    return start, direction, length, np.einsum('fd,fd->f', normal, sensor - middle) > 0
 
 
 def sample_visible(corner_points: np.ndarray, spacing: float,
                    sensor: np.ndarray = np.zeros(2)) -> np.ndarray:
-    """Points (n, 2) every <= `spacing` [m] along the visible faces, corners included once."""
-    start, direction, length = faces(corner_points)
-    visible = np.flatnonzero(visible_faces(corner_points, sensor))
+    """Points (n, 2) every <= `spacing` [m] (to 1e-9 of it) along the visible faces, corners
+    included once."""
+    start, direction, length, visible = seen_faces(corner_points, sensor)
+    visible = np.flatnonzero(visible)
     if not visible.size:
         return np.zeros((0, 2))
     pieces = []
     for f in visible:  # at most 2 faces of a rectangle seen from outside
-        count = max(int(np.ceil(length[f] / spacing)), 1)
+        # a face a whole number of spacings long (0.55 m at 0.05 m) is that many steps,
+        # whatever the last bit of its length after the rotation (else 11 or 12 by rounding)
+        count = max(int(np.ceil(length[f] / spacing * (1.0 - 1e-9))), 1)
         steps = np.arange(count + 1) * (length[f] / count)
         pieces.append(start[f] + steps[:, None] * direction[f])
     points = np.vstack(pieces)
-    _, unique = np.unique(np.round(points, 9), axis=0, return_index=True)
-    return points[np.sort(unique)]
+    first = {}  # each point (to 1e-9 m) at its first index: a shared corner once
+    for index, row in enumerate(map(tuple, np.round(points, 9).tolist())):
+        first.setdefault(row, index)
+    return points[list(first.values())]
 
 
 def closeness_yaw(points: np.ndarray, step: float = np.deg2rad(1.0),

@@ -38,15 +38,24 @@ class Boxes:
         return Boxes(self.centres[index], self.yaws[index], self.halves[index],
                      self.velocities[index], self.margins[index])
 
-    def reaching(self, points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-        """Indices of the boxes that may hold a return of `points` (K, 2) within their margin:
-        a box's centre is within the points' circle about their mean, grown by the box's half
-        diagonal, margin and largest move (velocity x offset)."""
-        mean = points.mean(axis=0)
-        radius = float(np.max(np.hypot(*(points - mean).T)))
-        moves = np.hypot(*self.velocities.T) * float(np.max(np.abs(offsets)))
-        reach = radius + np.hypot(*self.halves.T) + self.margins + moves
-        return np.flatnonzero(np.hypot(*(self.centres - mean).T) <= reach)
+    def reaching(self, points: np.ndarray, labels: np.ndarray, offsets: np.ndarray,
+                 count: int) -> np.ndarray:
+        """(count, B) bool: whether box b may hold a return of cluster c (`labels` (K,) of
+        `points` (K, 2), -1: none) within its margin: the box's centre is within the cluster's
+        circle about its mean, grown by the box's half diagonal, margin and largest move
+        (velocity x the cluster's largest |offset| (K,) [s])."""
+        inside = labels >= 0
+        owner, members = labels[inside], points[inside]
+        sizes = np.maximum(np.bincount(owner, minlength=count), 1)
+        means = np.column_stack([np.bincount(owner, members[:, k], count) / sizes
+                                 for k in range(2)])
+        radius, late = np.zeros(count), np.zeros(count)
+        np.maximum.at(radius, owner, np.hypot(*(members - means[owner]).T))
+        np.maximum.at(late, owner, np.abs(offsets[inside]))
+        reach = radius[:, None] + (np.hypot(*self.halves.T) + self.margins)[None] \
+            + late[:, None] * np.hypot(*self.velocities.T)[None]
+        gap = self.centres[None] - means[:, None]
+        return np.hypot(gap[..., 0], gap[..., 1]) <= reach
 
     def distances(self, points: np.ndarray, offsets: np.ndarray) -> np.ndarray:
         """(K, B): the distance [m] of each point (K, 2), taken offsets (K,) [s] after the
@@ -71,19 +80,17 @@ def split_shared(points: np.ndarray, labels: np.ndarray, boxes: Boxes, offsets: 
     labels are renumbered 0..C-1 in scan order of each cluster's first return (-1 kept; as
     cluster_consecutive numbers them); with none, `labels` itself is returned."""
     labels = np.asarray(labels)
-    if not len(boxes.yaws) or not np.any(labels >= 0):
-        return labels
+    if len(boxes.yaws) < 2 or not np.any(labels >= 0):
+        return labels   # a cluster is only split between two boxes or more
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     offsets = np.asarray(offsets, dtype=float).reshape(len(points))
     count = int(labels.max()) + 1
     next_label = count
-    for cluster in range(count):
+    reaching_boxes = boxes.reaching(points, labels, offsets, count)
+    large = np.bincount(labels[labels >= 0], minlength=count) >= 2 * min_points
+    for cluster in np.flatnonzero(large & (reaching_boxes.sum(axis=1) >= 2)):
         member = np.flatnonzero(labels == cluster)
-        if len(member) < 2 * min_points:
-            continue
-        reaching = boxes.reaching(points[member], offsets[member])
-        if len(reaching) < 2:
-            continue
+        reaching = np.flatnonzero(reaching_boxes[cluster])
         distance = boxes.subset(reaching).distances(points[member], offsets[member])
         near = distance <= boxes.margins[reaching][None, :]
         own = near & (near.sum(axis=1) == 1)[:, None]

@@ -62,8 +62,9 @@ class InteractingModels:
             reference = states[int(np.argmax(self.probabilities))]
             for a in self.angles:   # only those more than pi away move (the rest exactly kept)
                 far = np.abs(states[:, a] - reference[a]) > np.pi
-                states[far, a] = reference[a] + (np.mod(states[far, a] - reference[a] + np.pi,
-                                                        2 * np.pi) - np.pi)
+                if far.any():
+                    states[far, a] = reference[a] + (np.mod(
+                        states[far, a] - reference[a] + np.pi, 2 * np.pi) - np.pi)
         return states
 
     def _combine(self) -> None:
