@@ -133,7 +133,8 @@ class LidarTracking:
             directions = to_frame(directions, np.column_stack([np.zeros((len(poses), 2)),
                                                                poses[:, 2]]))
         self.frame = self.odometry_frame
-        sensor = self.odometry.at(np.array([time]), self.max_extrapolation)[0]
+        sensor = poses[0] if len(points) and offsets[0] == 0 else \
+            self.odometry.at(np.array([time]), self.max_extrapolation)[0]  # the pose at `time`
         return self.tracker.step(world, time, sensor=sensor[:2], offsets=offsets,
                                  directions=directions, max_range=max_range,
                                  origins=poses[:, :2] if len(points) else None,
