@@ -133,8 +133,7 @@ class LidarTracking:
             directions = to_frame(directions, np.column_stack([np.zeros((len(poses), 2)),
                                                                poses[:, 2]]))
         self.frame = self.odometry_frame
-        sensor = poses[0] if len(points) and offsets[0] == 0 else \
-            self.odometry.at(np.array([time]), self.max_extrapolation)[0]  # the pose at `time`
+        sensor = poses[0]   # at `time`: the first beam's (offset 0), or an empty scan's
         return self.tracker.step(world, time, sensor=sensor[:2], offsets=offsets,
                                  directions=directions, max_range=max_range,
                                  origins=poses[:, :2] if len(points) else None,

@@ -66,8 +66,7 @@ def process_noise(dt: float, accel_sigma: float, yaw_accel_sigma: float,
     yaw_accel_sigma^2 [rad^2/s^3]."""
     density = accel_sigma ** 2 * np.eye(2)
     if lateral_sigma is not None:
-        c, s = np.cos(heading), np.sin(heading)
-        turn = np.array([[c, -s], [s, c]])
+        turn = rotation(heading)
         density = turn @ np.diag([accel_sigma ** 2, lateral_sigma ** 2]) @ turn.T
     d = np.zeros((3, 3))   # of (x, y, yaw); the state is (x, y, yaw, vx, vy, yaw rate)
     d[:2, :2], d[2, 2] = density, yaw_accel_sigma ** 2
