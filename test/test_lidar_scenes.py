@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from data_association_ros.bag.lidar_eval import run_offline, scans_from_messages, score
-from data_association_ros.bag.lidar_motion import Pieces, Stadium
+from data_association_ros.bag.lidar_motion import Pieces, Stadium, ramp
 from data_association_ros.bag.lidar_random_scene import (CAR_LIDAR, F1TENTH_LIDAR, KINDS,
                                                          OTHER_LIDARS, Scene, SceneObject,
                                                          race_scene, random_scene)
@@ -76,6 +76,41 @@ def test_slow_f1tenth_car_is_reported_pointing_the_way_it_drives(course):
     errors = [abs(np.angle(np.exp(1j * (e.states[0, 2] - course)))) for e in estimates
               if len(e.ids)]
     assert len(errors) > 35 and max(errors) < np.deg2rad(5), np.degrees(max(errors))
+
+
+@pytest.mark.parametrize('before, speed, target, accel', [
+    (((1.0, 0.0, 0.0),), 0.0, 1.5, 1.0), (((0.5, 6.0, 0.0),), 6.0, 0.0, -4.0)])
+def test_a_ramp_changes_the_speed_at_its_acceleration(before, speed, target, accel):
+    """ramp's pieces by hand: after `before` the speed moves by |accel| per second to target,
+    within one step's worth, and stays there; a curvature turns at a fixed radius."""
+    pieces = ramp(before, speed, target, accel, curvature=0.1)
+    start = before[0][0]
+    for t in (0.25, 0.5, 0.8, 1.2, 2.0, 3.0):
+        expected = speed + np.sign(target - speed) * min(abs(accel) * t, abs(target - speed))
+        state = Pieces((0.0, 0.0, 0.0), pieces).state(np.array([start + t]))[0]
+        assert abs(np.hypot(state[3], state[4]) - expected) <= abs(accel) * 0.05 + 1e-6, t
+        assert state[5] == pytest.approx(0.1 * np.hypot(state[3], state[4]), abs=1e-6)
+
+
+@pytest.mark.parametrize('course_deg', [0, 150, 180, 250])
+def test_a_parked_f1tenth_car_pulling_away_is_turned_round_as_soon_as_it_moves(course_deg):
+    """An F1Tenth car parked for 1 s 2.5 m from the sensor, then pulling away at 1 m/s^2: while
+    it stands its track is settled as too slow to tell, the heading the fit's (at courses 150,
+    180 and 250 deg pointing backwards: nothing tells a parked box's front from its back).  Such
+    a track needed its velocity past 1 std (about 0.7 m/s) to be turned round: measured before,
+    180 deg off until 0.7 s after it started (0.7 m/s), now until 0.10-0.15 s (0.15-0.2 m/s).
+    Every reported heading within 5 deg once it drives at 0.3 m/s (twice its flip speed)."""
+    course = np.deg2rad(course_deg)
+    pose = (2.5 * np.cos(0.4), 2.5 * np.sin(0.4), course)
+    car = Pieces(pose, ramp(((1.0, 0.0, 0.0),), 0.0, 1.5, 1.0))  # parked 1 s, then 1 m/s^2
+    scene = Scene([SceneObject(1, 0.55, 0.30, car)], None, NO_WALLS, F1TENTH_LIDAR, 3.0, 0,
+                  size='f1tenth')
+    scans = scans_from_messages(scene.messages())
+    estimates, _ = run_offline(scans, configuration('f1tenth_static', TrackerConfig()))
+    errors = [abs(np.angle(np.exp(1j * (e.states[0, 2] - scan.truth[0]['yaw']))))
+              for scan, e in zip(scans, estimates)
+              if len(e.ids) and np.hypot(scan.truth[0]['vx'], scan.truth[0]['vy']) >= 0.3]
+    assert len(errors) > 60 and max(errors) < np.deg2rad(5), np.degrees(max(errors))
 
 
 @pytest.mark.parametrize('seed', [0, 2])

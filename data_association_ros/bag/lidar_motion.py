@@ -66,6 +66,18 @@ class Pieces(Motion):
         return result
 
 
+def ramp(before: tuple, speed: float, target: float, accel: float, curvature: float = 0.0,
+         step: float = 0.05) -> tuple:
+    """Pieces (Pieces.pieces): `before`, then the speed going from `speed` to `target` [m/s]
+    at |accel| [m/s^2] in steps of `step` [s], then on at target: a car braking to a stop or
+    pulling away; the yaw rate is curvature [1/m] x speed throughout the ramp and after."""
+    count = int(np.ceil(abs(target - speed) / (abs(accel) * step)))
+    speeds = np.clip(speed + np.sign(target - speed) * abs(accel) * step
+                     * np.arange(1, count + 1), min(speed, target), max(speed, target))
+    return tuple(before) + tuple((step, float(v), float(curvature * v)) for v in speeds) \
+        + ((1e6, float(target), float(curvature * target)),)
+
+
 def _ctrv(start: np.ndarray, dt: np.ndarray, speed: float, rate: float) -> np.ndarray:
     """Poses (T, 3) after dt (T,) [s] from start poses (T, 3) at constant speed and turn rate."""
     yaw = start[:, 2] + rate * dt

@@ -35,7 +35,7 @@ width, visible = beams that hit the object in that scan; frame `odom` with a mov
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterator, NamedTuple, Optional
+from typing import Callable, Iterator, NamedTuple, Optional
 
 import numpy as np
 from sensor_msgs.msg import LaserScan
@@ -274,9 +274,18 @@ SIZE_SETTINGS = {
 """Per size class, random_scene's numbers."""
 
 
+def straight_then_turn(rng: np.random.Generator, start: tuple, speed: float, straight: float,
+                       turn: float, duration: float) -> Motion:
+    """random_scene's motion: straight at `speed` [m/s] for `straight` [s], then turning at
+    `turn` [rad/s] (draws nothing from rng)."""
+    return Pieces(start, ((straight, speed, 0.0), (duration + 1.0, speed, turn)))
+
+
 def random_scene(seed: int, size: str = 'car', moving: bool = False,
-                 duration: float = 4.0) -> Scene:
-    """A random scene (module docstring) from `seed`; the same seed gives the same scene."""
+                 duration: float = 4.0, motion: Callable = straight_then_turn) -> Scene:
+    """A random scene (module docstring) from `seed`; the same seed gives the same scene.
+    `motion(rng, start pose, speed, straight, turn, duration)` makes each object's trajectory
+    from its draws (straight_then_turn; benchmarks/lidar_stop_and_go.py passes others)."""
     if size not in SIZES:
         raise ValueError(f'size: {size!r} is not one of {", ".join(SIZES)}')
     rng = np.random.default_rng([seed, SIZES.index(size), int(moving)])
@@ -306,11 +315,11 @@ def random_scene(seed: int, size: str = 'car', moving: bool = False,
             straight = rng.uniform(0.0, duration)
             turn = rng.uniform(-settings.max_turn, settings.max_turn) * (rng.random() < 0.6)
             start = (distance * np.cos(bearing), distance * np.sin(bearing), heading)
-            motion = Pieces(start, ((straight, speed, 0.0), (duration + 1.0, speed, turn)))
+            path = motion(rng, start, speed, straight, turn, duration)
             radius = np.hypot(length, width) / 2
-            if _clear(motion, radius, placed, walls_y, sensor, times):
-                objects.append(SceneObject(number, float(length), float(width), motion))
-                placed.append((motion, radius))
+            if _clear(path, radius, placed, walls_y, sensor, times):
+                objects.append(SceneObject(number, float(length), float(width), path))
+                placed.append((path, radius))
                 break
     return Scene(objects, sensor, walls, settings.lidar, duration, seed, size,
                  {'walls_y': walls_y, 'moving': moving})

@@ -42,7 +42,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    object wider than its size class allows, and turns the heading when the cluster already
    spreads across it that wide (plausible_turn); a track is reported only once
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
-   SETTLE_TIME unless its velocity is voting to turn it); a settled track's velocity and
+   SETTLE_TIME unless its velocity is voting to turn it; a track settled as too slow is
+   turned as an unsettled one once it moves: DIRECTION_TIME); a settled track's velocity and
    heading are then corrected towards each other (no_slip, slip_sigma); the rectangle grows or
    moves to
    contain the matched points (shape.contain), and is cut back where beams pass through it
@@ -184,7 +185,11 @@ speed, whatever its std: the filter's velocity std stays near its steady state (
 see SIGMAS_TO_TURN) while the velocity itself holds still, so a slow object (an F1Tenth car at
 0.8 m/s, whose flip speed is 0.14 m/s) never passed the 1-std test before SETTLE_TIME and was
 reported with the fit's heading, pointing backwards (f1tenth_moving seeds 102 and 108: heading
-RMSE 154 and 119 deg)."""
+RMSE 154 and 119 deg).  The same holds for a track settled as too slow to tell, its heading
+from the shape alone and pointing either way: an F1Tenth car parked, then pulling away at
+1 m/s^2, was turned round 0.7 s after it started, at 0.7 m/s, its heading 180 deg off over the
+0.25 m it drove meanwhile (now at 0.15-0.2 m/s; docs/lidar.md "Twenty-ninth round").  Only a
+heading the velocity told (ObjectTrack.told) needs the 1-std test to be turned."""
 
 __all__ = ['LidarObjectTracker', 'ObjectTrack', 'fictitious_measurement', 'rotation']
 
@@ -196,7 +201,8 @@ class ObjectTrack:
     update count, time [s] and posterior (x, y, yaw) of the last update, and this scan's matched
     scan points; continues: it took over an older track's id; swung [rad]: the net heading
     change by the corrections since the rectangle was last fitted (EXTENT_SWING); published:
-    this track has been reported; fitted: the centre (2,) of the rectangle last fitted to a
+    this track has been reported; settled: its heading is settled (heading_turn), told: by the
+    velocity, not as too slow to tell; fitted: the centre (2,) of the rectangle last fitted to a
     cluster, where the object was when those beams were taken (the two-point start's first
     point; last is the posterior at the stamp)."""
 
@@ -210,6 +216,7 @@ class ObjectTrack:
     last: np.ndarray = field(default_factory=lambda: np.zeros(3))
     matched: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     settled: bool = False
+    told: bool = False
     born: float = 0.0
     vote: float = 0.0
     votes: int = 0
@@ -816,7 +823,7 @@ class LidarObjectTracker:
         track.swung += wrap_angle(x[2] - before)
         turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
                                      FLIP_RATE * max(config.priors()),
-                                     SIGMAS_TO_TURN if track.settled
+                                     SIGMAS_TO_TURN if track.told
                                      or time - track.born < DIRECTION_TIME else 0.0)
         told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= FLIP_RATE * max(
             config.priors()))  # the velocity told (else: known to be too slow to tell)
@@ -833,6 +840,7 @@ class LidarObjectTracker:
         if shaped != turn:  # the cluster's shape overrules the velocity's votes
             turn, settled, track.votes = shaped, False, 0
         track.settled = track.settled or settled
+        track.told = track.told or (settled and told)
         track.matched = sample[pairs[:, 0]]
         if abs(turn) > 3:  # pointing backwards: the same rectangle, turned round
             x[2] += np.pi
