@@ -252,3 +252,27 @@ def test_mrclam_benchmark_drift_splits_by_origin_and_counts_later_pairs(monkeypa
     assert math.isclose(speed, 0.1) and later == 1
     speed, later = found['landmark'][0]
     assert speed == 0.0 and later == 3
+
+
+def test_stop_and_go_benchmark_motions_and_speed_filter_by_hand():
+    """benchmarks/lidar_stop_and_go: parked stands still; pulling_away stands for straight / 2
+    and then reaches the speed drawn; braking drives at it for straight / 2 and then stops;
+    at_speed leaves only the objects at or over the speed visible."""
+    import numpy as np
+    from lidar_stop_and_go import MOTIONS, at_speed
+    from data_association_ros.bag.lidar_eval import Scan
+    from data_association_ros.bag.lidar_random_scene import OBJECT_DTYPE
+    start, speed, straight, turn = (1.0, 2.0, 0.5), 4.0, 2.0, 0.2
+    speeds = {}
+    for name, motion in MOTIONS.items():
+        path = motion(np.random.default_rng(0), start, speed, straight, turn, 4.0)
+        state = path.state(np.array([0.5, 0.9, 8.0]))
+        speeds[name] = np.hypot(state[:, 3], state[:, 4])
+        assert np.allclose(path.poses(np.array([0.0]))[0], start)
+    assert np.allclose(speeds['parked'], 0.0)
+    assert np.allclose(speeds['pulling_away'], [0.0, 0.0, speed])
+    assert np.allclose(speeds['braking'], [speed, speed, 0.0])
+    truth = np.zeros(3, dtype=OBJECT_DTYPE)
+    truth['vx'], truth['vy'], truth['visible'] = [0.1, 3.0, 0.0], [0.0, 0.0, -2.0], 20
+    kept = at_speed(Scan(0.0, np.zeros((0, 2)), truth), 2.0).truth['visible']
+    assert kept.tolist() == [0, 20, 20] and truth['visible'].tolist() == [20, 20, 20]
