@@ -98,8 +98,9 @@ def test_a_parked_f1tenth_car_pulling_away_is_turned_round_as_soon_as_it_moves(c
     it stands its track is settled as too slow to tell, the heading the fit's (at courses 150,
     180 and 250 deg pointing backwards: nothing tells a parked box's front from its back).  Such
     a track needed its velocity past 1 std (about 0.7 m/s) to be turned round: measured before,
-    180 deg off until 0.7 s after it started (0.7 m/s), now until 0.10-0.15 s (0.15-0.2 m/s).
-    Every reported heading within 5 deg once it drives at 0.3 m/s (twice its flip speed)."""
+    180 deg off until 0.6-0.7 s after it started (0.6-0.7 m/s), now until 0.10-0.15 s
+    (0.13-0.18 m/s).  Every reported heading within 5 deg once it drives at 0.3 m/s (twice its
+    flip speed)."""
     course = np.deg2rad(course_deg)
     pose = (2.5 * np.cos(0.4), 2.5 * np.sin(0.4), course)
     car = Pieces(pose, ramp(((1.0, 0.0, 0.0),), 0.0, 1.5, 1.0))  # parked 1 s, then 1 m/s^2
