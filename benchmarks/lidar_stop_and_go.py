@@ -3,8 +3,10 @@
     python benchmarks/lidar_stop_and_go.py [--kinds f1tenth_static,f1tenth_moving]
         [--motions parked,pulling_away,braking] [--seeds 100-129] [-j 2]
 
-`random_scene` (bag/lidar_random_scene.py) with its draws unchanged, each object's trajectory
-replaced (the draws it gets: start pose, speed v, straight time s, turn rate w):
+`random_scene` (bag/lidar_random_scene.py) with each object's trajectory replaced (the draws it
+gets: start pose, speed v, straight time s, turn rate w; pulling_away and braking draw their
+ramp time from the scene's generator too, so the objects after the first differ from the
+default scenes' of the same seed):
 * `parked`: standing at its start pose throughout;
 * `pulling_away`: parked for s / 2, then up to v in 1.5-4 s, turning at a fixed radius v / w;
 * `braking`: at v for s / 2, then down to a stop in 1-3 s, turning at that radius while moving.

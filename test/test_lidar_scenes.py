@@ -90,6 +90,9 @@ def test_a_ramp_changes_the_speed_at_its_acceleration(before, speed, target, acc
         state = Pieces((0.0, 0.0, 0.0), pieces).state(np.array([start + t]))[0]
         assert abs(np.hypot(state[3], state[4]) - expected) <= abs(accel) * 0.05 + 1e-6, t
         assert state[5] == pytest.approx(0.1 * np.hypot(state[3], state[4]), abs=1e-6)
+    assert ramp(before, target, target, 0.0)[len(before):] == ((1e6, target, 0.0),)
+    with pytest.raises(ValueError):
+        ramp(before, speed, target, 0.0)
 
 
 @pytest.mark.parametrize('course_deg', [0, 150, 180, 250])

@@ -70,8 +70,11 @@ def ramp(before: tuple, speed: float, target: float, accel: float, curvature: fl
          step: float = 0.05) -> tuple:
     """Pieces (Pieces.pieces): `before`, then the speed going from `speed` to `target` [m/s]
     at |accel| [m/s^2] in steps of `step` [s], then on at target: a car braking to a stop or
-    pulling away; the yaw rate is curvature [1/m] x speed throughout the ramp and after."""
-    count = int(np.ceil(abs(target - speed) / (abs(accel) * step)))
+    pulling away; the yaw rate is curvature [1/m] x speed throughout the ramp and after.
+    Raises ValueError for accel 0 with speed != target (no ramp reaches the target)."""
+    if speed != target and accel == 0:
+        raise ValueError('ramp: accel must be non-zero to change the speed')
+    count = int(np.ceil(abs(target - speed) / (abs(accel) * step))) if speed != target else 0
     speeds = np.clip(speed + np.sign(target - speed) * abs(accel) * step
                      * np.arange(1, count + 1), min(speed, target), max(speed, target))
     return tuple(before) + tuple((step, float(v), float(curvature * v)) for v in speeds) \
