@@ -36,8 +36,8 @@ from data_association_ros.bag.lidar_seeds import (HEADING_LIMIT_DEG, MIN_SCORED_
 from data_association_ros.core.lidar import TrackerConfig
 from data_association_ros.core.lidar.object_tracker import FLIP_RATE
 
-KIND_SCENES = {'car_static': ('car', False), 'car_moving': ('car', True),
-               'f1tenth_static': ('f1tenth', False), 'f1tenth_moving': ('f1tenth', True)}
+KIND_SCENES = {kind: (size, kind.endswith('_moving')) for kind, size in SIZE_OF_KIND.items()
+               if kind.endswith(('_static', '_moving'))}
 """Kinds of da_lidar_eval whose scenes random_scene makes: (size class, moving sensor)."""
 MIN_FAST_SCANS = 10
 """Objects driving at speed on fewer scans are left out of "heading at speed"."""
@@ -73,8 +73,9 @@ def seed_rows(kind: str, motion: str, seed: int) -> list[tuple[bool, float]]:
     size, moving = KIND_SCENES[kind]
     scene = random_scene(seed, size, moving, motion=MOTIONS[motion])
     scans = scans_from_messages(scene.messages())
-    estimates, _ = run_offline(scans, configuration(kind, TrackerConfig()))
-    fastest = 2 * FLIP_RATE * max(configuration(kind, TrackerConfig()).priors())
+    config = configuration(kind, TrackerConfig())
+    estimates, _ = run_offline(scans, config)
+    fastest = 2 * FLIP_RATE * max(config.priors())
     fast = score([at_speed(scan, fastest) for scan in scans], estimates)
     rows = []
     for object_id, result in sorted(score(scans, estimates).items()):
