@@ -21,6 +21,7 @@ from data_association_ros.core.lidar.object_tracker import (SETTLE_TIME, SLOW_VO
                                                              fused_start_velocity, heading_turn,
                                                              no_slip, plausible_turn, refit_along,
                                                              vague)
+from data_association_ros.core.lidar.shape import rotation
 from data_association_ros.core.tracking.kalman import KalmanFilter
 from data_association_ros.pipelines.lidar_tracking import LidarTracking, PoseHistory, to_frame
 
@@ -612,7 +613,10 @@ def test_an_f1tenth_car_seen_at_10hz_keeps_its_heading_by_its_velocity():
     F1Tenth preset ties heading and velocity (no_slip, slip_sigma 0.3): at most 10 deg off
     there, heading RMSE 3.8 deg; position 0.033 -> 0.021 m.  Its calm model, calm across the
     heading since (calm_lateral_accel_sigma 1.0, with the gate of either model), steadies the
-    velocity further: the preset now 3.6 deg, 5.3 without the slip, 13.5 without either."""
+    velocity further: the preset 3.6 deg, 5.3 without the slip, 13.5 without either.  Since a
+    settled track's points are turned back by its yaw rate (at_stamp_points: in the bend its
+    rear face's returns, 0.05 s into the scan, were taken 4 deg further round, at 73 deg/s)
+    3.2 deg, 3.5 without the slip, 12.3 without either."""
     scans = coarse_10hz_scans('race', 123)
     config = configuration('race', TrackerConfig())
     assert config.slip_sigma == 0.3
@@ -623,30 +627,34 @@ def test_an_f1tenth_car_seen_at_10hz_keeps_its_heading_by_its_velocity():
         slip_sigma=0.0, calm_lateral_accel_sigma=0.0))[0])[1]
     assert before.heading_rmse_deg > 10.0, before
     no_slip = score(scans, run_offline(scans, config.with_values(slip_sigma=0.0))[0])[1]
-    assert no_slip.heading_rmse_deg > result.heading_rmse_deg + 1.0, (no_slip, result)
+    assert result.heading_rmse_deg <= no_slip.heading_rmse_deg < 5.0, (no_slip, result)
 
 
-def test_a_calm_model_calm_across_the_heading_steadies_f1tenth_cars_seen_at_10hz():
+def test_f1tenth_cars_driving_away_seen_at_10hz_keep_their_heading():
     """f1tenth_static seed 111 seen by 360_10hz_coarse: cars 1 and 3 drive away 3-10 m from
     the sensor, only their 0.3 m rear faces seen (4-14 returns, 2 cm noise), which turn the box
     by +-10 deg a scan.  With the calm model's isotropic 4 m/s^2/sqrt(Hz) the velocity (and with
-    slip_sigma the heading) follows them: heading 7.9 / 8.8 deg, position 0.042 / 0.074 m.  The
+    slip_sigma the heading) followed them: heading 7.9 / 8.8 deg, position 0.042 / 0.074 m.  The
     preset's calm model, once the heading is settled, accelerates across it by 1 m/s^2/sqrt(Hz)
     only (along it by accel_sigma): 3.1 / 5.3 deg, 0.022 / 0.046 m (4.5 deg for car 3 with the
     lateral noise from its start on, which lets a box still 90 deg off hold the velocity back:
-    f1tenth_static 213/1 at 40 Hz 0.7 -> 9.5 deg)."""
+    f1tenth_static 213/1 at 40 Hz 0.7 -> 9.5 deg).  Since a settled track's points are also
+    turned back by its yaw rate (at_stamp_points), most of that was the heading read at the
+    beams' time: the preset 3.0 / 5.3 deg, 0.022 / 0.047 m, the isotropic calm model 3.1 / 5.7
+    deg, 0.021 / 0.043 m (2026-12-07)."""
     scans = coarse_10hz_scans('f1tenth_static', 111)
     config = configuration('f1tenth_static', TrackerConfig())
     assert config.calm_lateral_accel_sigma == 1.0 and config.calm_yaw_accel_sigma > 0
     calm, isotropic = (score(scans, run_offline(scans, c)[0]) for c in
                        (config, config.with_values(calm_lateral_accel_sigma=0.0)))
     for car in (1, 3):
-        assert len(calm[car].track_ids) == 1, calm[car]
-        pair = (calm[car], isotropic[car])
-        assert calm[car].position_rmse < min(0.05, isotropic[car].position_rmse), pair
-        assert calm[car].heading_rmse_deg < isotropic[car].heading_rmse_deg - 2.5, pair
-        assert isotropic[car].heading_rmse_deg > 7.0, pair
-    assert calm[1].heading_rmse_deg < 5.0 and calm[2].heading_rmse_deg < 5.0, calm
+        assert len(calm[car].track_ids) == 1 and calm[car].position_rmse < 0.05, calm[car]
+        assert isotropic[car].position_rmse < 0.05, isotropic[car]
+        assert calm[car].heading_rmse_deg < isotropic[car].heading_rmse_deg + 0.5, \
+            (calm[car], isotropic[car])
+    assert calm[1].heading_rmse_deg < 5.0 and isotropic[1].heading_rmse_deg < 5.0, \
+        (calm, isotropic)
+    assert calm[2].heading_rmse_deg < 5.0, calm
 
 
 def test_car_found_again_off_its_coasting_prediction_keeps_its_id():
@@ -1224,6 +1232,52 @@ def test_tracks_corrected_on_the_previous_scan_take_their_clusters_first():
         and result.velocity_rmse < 0.8, result
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-np.pi, np.pi), st.floats(-20, 20), st.floats(-20, 20), st.floats(-10, 10),
+       st.floats(-10, 10), st.floats(-3, 3),
+       st.lists(st.tuples(st.floats(-3, 3), st.floats(-1, 1), st.floats(0.0, 0.1)),
+                min_size=1, max_size=6))
+def test_points_taken_late_go_where_they_are_on_the_object_at_the_stamp(yaw, cx, cy, vx, vy, w,
+                                                                       hits):
+    """A rigid object at centre c and heading yaw at the stamp, moving at v and turning at w:
+    its body point b seen `late` after the stamp is at c + v late + R(yaw + w late) b, and
+    at_stamp_points puts it back at c + R(yaw) b."""
+    centre, velocity = np.array([cx, cy]), np.array([vx, vy])
+    body = np.array([hit[:2] for hit in hits])
+    late = np.array([hit[2] for hit in hits])
+    taken = np.array([centre + velocity * t + rotation(yaw + w * t) @ b
+                      for b, t in zip(body, late)])
+    np.testing.assert_allclose(
+        object_tracker.at_stamp_points(taken, late, centre, np.array([vx, vy, w])),
+        centre + body @ rotation(yaw).T, atol=1e-9)
+
+
+def heading_bias_in_a_circle(turn, start, scans=15):
+    """Mean heading error [deg] over the last `scans` scans of an F1Tenth car driving a circle
+    at 1.5 m/s and yaw rate `turn` [rad/s] from `start`, seen by a 10 Hz 360 deg scanner
+    (360_10hz_coarse, the beams of one turn 0.1 s apart) with the F1Tenth preset."""
+    scene = Scene([SceneObject(1, 0.55, 0.3, Pieces(start, ((4.0, 1.5, turn),)))], None,
+                  NO_WALLS, OTHER_LIDARS['360_10hz_coarse'], 3.0, 0)
+    scans_seen = scans_from_messages(scene.messages())
+    estimates, _ = run_offline(scans_seen, configuration('f1tenth_static', TrackerConfig()))
+    errors = [np.angle(np.exp(1j * (estimate.states[0, 2] - scan.truth[0]['yaw'])))
+              for scan, estimate in zip(scans_seen, estimates) if len(estimate.ids)]
+    return float(np.degrees(np.mean(errors[-scans:])))
+
+
+@pytest.mark.parametrize('turn, start', [(0.8, (-4.5, 1.5, 0.0)), (1.2, (-4.5, 1.5, 0.0)),
+                                         (0.8, (3.0, 3.0, 2.5)), (1.2, (3.0, 3.0, 2.5))])
+def test_a_car_turning_in_a_slow_scan_is_reported_with_its_heading_at_the_stamp(turn, start):
+    """Behind the sensor (start 1: 5-6 m away, its beams 0.084-0.089 s after the stamp of the
+    0.1 s turn) or beside it (start 2: 1-2 m, 0.056-0.075 s), an F1Tenth car circling at 0.8 /
+    1.2 rad/s turns 3-6 deg between the stamp and its beams.
+    Mean heading error over the last 15 scans, measured: 0.59 / 0.51 / -0.14 / 0.27 deg; with
+    the points moved back by the velocity only and the heading read at the stamp (the code
+    before, 2026-12-07) 3.83 / 5.55 / 2.78 / 4.65 deg."""
+    bias = heading_bias_in_a_circle(turn, start)
+    assert abs(bias) < 1.5, bias
+
+
 def speeds_after_each_scan(lidar, start, speed, size=(4.5, 1.8), kind=None, scans=8):
     """|velocity| of the one track after each of the first `scans` scans of one object driving
     straight from `start` at `speed`, seen by `lidar` from the origin (offsets passed)."""
@@ -1256,7 +1310,7 @@ def test_a_scan_taken_over_time_does_not_slow_the_velocity(start, speed, size, k
         speeds_after_each_scan(instant, start, speed, size, kind)[2:] - speed))
     assert lag < most and lag_instant < 0.2, (lag, lag_instant)
     monkeypatch.setattr(object_tracker, 'beam_time_measurement',
-                        lambda late, elapsed=np.inf: np.eye(6))
+                        lambda late, elapsed=np.inf, turned=False: np.eye(6))
     before = np.mean(np.abs(speeds_after_each_scan(lidar, start, speed, size, kind)[2:] - speed))
     assert before > 1.5 * most, before
 
@@ -1271,6 +1325,10 @@ def test_beam_time_measurement_and_the_start_covariance_by_hand():
     # velocity_measurement: (z - last) / elapsed reads v + late (v - v0) / elapsed
     h = object_tracker.beam_time_measurement(0.02, elapsed=0.025)
     np.testing.assert_allclose(h @ x, [1.1, 1.92, 0.3, 9.0, -7.2, 0.1])
+    # turned back by the yaw rate too: the heading reads yaw + late (w - w0), w on its own row
+    # as the velocity is on its own
+    h = object_tracker.beam_time_measurement(0.02, elapsed=0.025, turned=True)
+    np.testing.assert_allclose(h @ x, [1.1, 1.92, 0.302, 9.0, -7.2, 0.18])
     tracker = LidarObjectTracker()
     side = np.column_stack([np.linspace(-2.0, 2.0, 41), np.full(41, 5.0)])
     track = tracker._start(side, np.zeros(2, bool), 1.0, late=0.02)

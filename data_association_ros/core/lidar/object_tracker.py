@@ -33,8 +33,10 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    each, InteractingModels.smallest_nis, so a manoeuvre's first measurements pass); its points
    having been moved back to the stamp by the predicted velocity v0, the position it reads is
    p + late (v - v0), late the points' mean offset (beam_time_measurement; a track started at
-   rest has the matching covariance); after the update they are moved back again with the
-   corrected velocity for the shape steps below;
+   rest has the matching covariance); a track with its heading settled and corrected on the
+   previous scan also has them turned back by its predicted yaw rate w0 (at_stamp_points), so
+   that the heading it reads is yaw + late (w - w0), not the heading at the beams' time; after
+   the update they are moved back again with the corrected motion for the shape steps below;
 6. the velocity settles the heading (heading_turn): when it points backwards (pi) or across
    (+-pi/2: a rectangle fit is ambiguous by 90 deg) on 3 updates in a row, the rectangle is
    turned round, or fitted anew along the velocity (shape.fit_at); before the heading is
@@ -86,7 +88,7 @@ object's centre when only part of it was seen; the point_to_line correction; the
 covariance in R; the velocity left to the filter by default.  The tracking frame is the caller's:
 points and the sensor position (step's `sensor`) in that frame (pipelines.lidar_tracking moves a
 moving sensor's scans into the odometry frame); per-point times (`offsets`) move an object's
-points back to the scan's stamp with its predicted velocity.
+points back to the scan's stamp with its predicted velocity and yaw rate.
 """
 from __future__ import annotations
 
@@ -362,7 +364,8 @@ class LidarObjectTracker:
             track = self.tracks[track_index]
             coasting = track.updated < before
             try:
-                corrected = self._update(track, points, labels, clusters, ends, edges, time)
+                corrected = self._update(track, points, labels, clusters, ends, edges, time,
+                                         track.settled and not coasting)
             except (InvalidInputError, np.linalg.LinAlgError):
                 corrected = False  # degenerate pairs: no correction this scan
             if corrected:
@@ -632,17 +635,21 @@ class LidarObjectTracker:
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(origins, directions (R, 2), free lengths, returned (R,)) of this scan's beams that
         can meet the track's rectangle (half extents `half` (2,)), in its frame; with
-        `velocity` (2,) each beam moved back by velocity x its time offset, as the object's
-        points are (free_space.near's circle grown by the largest such move)."""
+        `velocity` (vx, vy, w) each beam moved back by (vx, vy) x its time offset and turned
+        back about the centre by -w x that offset, as the object's points are (at_stamp_points;
+        free_space.near's circle grown by the largest move)."""
         x = track.filter.x
         r = rotation(x[2])
         directions, free, returned = self._rays
         moves = np.zeros((len(free), 2)) if velocity is None else \
-            self._offsets[:, None] * velocity
+            self._offsets[:, None] * velocity[:2]
         reach = float(np.hypot(*half)) + float(np.max(np.hypot(*moves.T), initial=0.0))
         rays = near(self._origins, directions, x[:2], reach)
-        return ((self._origins[rays] - x[:2] - moves[rays]) @ r, directions[rays] @ r, free[rays],
-                returned[rays])
+        origins, directions = self._origins[rays] - x[:2] - moves[rays], directions[rays]
+        if velocity is not None and velocity[2]:  # and turned back by yaw rate x offset
+            turned = -self._offsets[rays] * velocity[2]
+            origins, directions = rotate(origins, turned), rotate(directions, turned)
+        return origins @ r, directions @ r, free[rays], returned[rays]
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
@@ -765,18 +772,24 @@ class LidarObjectTracker:
         return result
 
     def _update(self, track: ObjectTrack, points: np.ndarray, labels: np.ndarray,
-                clusters: list, ends: np.ndarray, edges: np.ndarray, time: float) -> bool:
+                clusters: list, ends: np.ndarray, edges: np.ndarray, time: float,
+                turned: bool = False) -> bool:
         """Steps 4-6 for one track; False when the scan could not correct it (too few pairs,
         or the measurement outside the filter's gate); InvalidInputError or LinAlgError when
-        the pairs are degenerate."""
+        the pairs are degenerate.  `turned`: the points are turned back by the predicted yaw
+        rate too (step passes it for a track settled and corrected on the previous scan:
+        before the heading settles the yaw rate is a guess tens of deg/s off, and after
+        coasting late^2 var(w) widened the gate enough to take a correction 40 deg off, read
+        as 220 deg/s, car_static seed 2008 object 4 seen by 360_10hz)."""
         config = self.config
         x = track.filter.x
-        compensation = x[3:5].copy()  # the velocity the points are moved back with
+        compensation = np.array([x[3], x[4], x[5] if turned else 0.0])
         member = np.isin(labels, clusters)
         moving = bool(np.any(self._offsets[member]))  # the object moved while the beam turned
         if moving:
+            taken = points[member]
             points = points.copy()
-            points[member] -= self._offsets[member, None] * x[3:5]
+            points[member] = at_stamp_points(taken, self._offsets[member], x[:2], compensation)
         scan = points[member]
         pick = evenly(len(scan), config.max_match_points)
         sample = scan[pick]
@@ -798,9 +811,10 @@ class LidarObjectTracker:
                                    elapsed)
         z[2] = x[2] + wrap_angle(z[2] - x[2])
         rows = slice(None) if config.velocity_measurement else slice(0, 3)
-        # the points were moved back by the predicted velocity: z reads the position at the
-        # stamp plus (v - predicted v) x the beams' mean offset (beam_time_measurement)
-        h = beam_time_measurement(self._late(member), elapsed)[rows]
+        # the points were moved back by the predicted velocity (and turned back by the
+        # predicted yaw rate): z reads the pose at the stamp plus (v - predicted v, w -
+        # predicted w) x the beams' mean offset (beam_time_measurement)
+        h = beam_time_measurement(self._late(member), elapsed, turned)[rows]
         track.filter.h = h
         track.filter.r = measurement_covariance(correction.covariance, elapsed,
                                                 config.measurement_sigmas())[rows, rows]
@@ -815,11 +829,11 @@ class LidarObjectTracker:
         before = x[2]
         track.filter.update(measured)
         x = track.filter.x
-        if moving:  # moved back again, with the corrected velocity
-            points[member] += self._offsets[member, None] * (compensation - x[3:5])
+        if moving:  # moved back again, with the corrected motion
+            compensation = np.array([x[3], x[4], x[5] if turned else 0.0])
+            points[member] = at_stamp_points(taken, self._offsets[member], x[:2], compensation)
             scan = points[member]
             sample = scan[pick]
-            compensation = x[3:5].copy()
         track.swung += wrap_angle(x[2] - before)
         turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
                                      FLIP_RATE * max(config.priors()),
@@ -896,7 +910,7 @@ class LidarObjectTracker:
     def _grow(self, track: ObjectTrack, matched: np.ndarray, scan: np.ndarray,
               compensation: np.ndarray, face_ends: list[tuple[np.ndarray, int]]) -> None:
         """Step 6: contain the matched points, then cut back what beams pass through
-        (free_space.carve; the beams moved back with `compensation` (2,), the velocity the
+        (free_space.carve; the beams moved back with `compensation` (vx, vy, w), the motion the
         scan points were moved back with) and where the beam past a face's end crosses its
         line (free_space.face_end_limit, `face_ends` from _face_ends); the anchor becomes this
         scan's centroid."""
@@ -917,10 +931,12 @@ class LidarObjectTracker:
                           margin=self._margin)
         beam_directions, beam_free, _ = self._rays
         for face, outer in face_ends:
-            origin = self._origins[outer] - self._offsets[outer] * compensation
-            found = face_end_limit((face - x[:2]) @ r, (origin - x[:2]) @ r,
-                                   beam_directions[outer] @ r, beam_free[outer],
-                                   self.config.point_sigma)
+            late = self._offsets[outer]
+            origin = rotate(self._origins[outer] - late * compensation[:2] - x[:2],
+                          -late * compensation[2])
+            found = face_end_limit((face - x[:2]) @ r, origin @ r,
+                                   rotate(beam_directions[outer], -late * compensation[2]) @ r,
+                                   beam_free[outer], self.config.point_sigma)
             if found is not None:
                 k, side, limit = found
                 if side:
@@ -1135,7 +1151,24 @@ def handed_velocity(velocity: np.ndarray, yaw: float) -> np.ndarray:
     return float(np.hypot(*velocity)) * (1.0 if axis @ velocity >= 0 else -1.0) * axis
 
 
-def beam_time_measurement(late: float, elapsed: float = np.inf) -> np.ndarray:
+def rotate(vectors: np.ndarray, angles) -> np.ndarray:
+    """Each vector (n, 2) (or one (2,)) turned by its angle (n,) (or one) [rad]: R(angle) v."""
+    c, s = np.cos(angles), np.sin(angles)
+    v = np.asarray(vectors, float)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
+
+
+def at_stamp_points(points: np.ndarray, late: np.ndarray, centre: np.ndarray,
+                    motion: np.ndarray) -> np.ndarray:
+    """Points (n, 2) of an object taken `late` (n,) [s] after the stamp, moved to where they
+    are on it at the stamp: c + R(-w late)(p - c - v late), for its centre c (2,) at the stamp
+    and motion (vx, vy, w) [m/s, rad/s]."""
+    late = np.asarray(late, float)
+    return centre + rotate(points - centre - late[:, None] * motion[:2], -late * motion[2])
+
+
+def beam_time_measurement(late: float, elapsed: float = np.inf, turned: bool = False
+                          ) -> np.ndarray:
     """H (6, 6) of the fictitious measurement of a track whose points were taken `late` [s]
     after the stamp (their mean offset) and moved back by the predicted velocity v0: its
     position reads z = p + late (v - v0), i.e. z + late v0 = H x with H = I, H[0, 3] = H[1, 4]
@@ -1144,10 +1177,19 @@ def beam_time_measurement(late: float, elapsed: float = np.inf) -> np.ndarray:
     Without it (H = I), the start reads the object ahead by v late (its points not moved
     back); as the predicted velocity grows they are moved back more and the object seems to
     move less than it does (a car at 9.5 m/s seen 16 ms into the scan: 6.4 m/s after 2
-    updates; with it 8.5; the same car scanned at one instant 9.3)."""
+    updates; with it 8.5; the same car scanned at one instant 9.3).  `turned`: the points were
+    turned back by the predicted yaw rate w0 too, so the heading reads yaw + late (w - w0):
+    H[2, 5] = late (and H[5, 5] = 1 + late / elapsed).  Without it a car turning at w is
+    reported w late behind its heading (an F1Tenth car circling at 69 deg/s behind a 10 Hz
+    scanner, late ~ 0.09 s: 4-6 deg); points turned back but H[2, 5] = 0 feed w0 back into
+    the heading read, and the yaw rate of a car driving straight rang: -18, 39, -54, 73, -84
+    deg/s on 5 scans (car_static seed 100 object 1 seen by 360_10hz)."""
     h = np.eye(6)
     h[0, 3] = h[1, 4] = late
     h[3, 3] = h[4, 4] = 1.0 + late / elapsed
+    if turned:
+        h[2, 5] = late
+        h[5, 5] = 1.0 + late / elapsed
     return h
 
 
