@@ -88,7 +88,8 @@ object's centre when only part of it was seen; the point_to_line correction; the
 covariance in R; the velocity left to the filter by default.  The tracking frame is the caller's:
 points and the sensor position (step's `sensor`) in that frame (pipelines.lidar_tracking moves a
 moving sensor's scans into the odometry frame); per-point times (`offsets`) move an object's
-points back to the scan's stamp with its predicted velocity and yaw rate.
+points back to the scan's stamp with its velocity (and, a settled track corrected on the
+previous scan, turn them back with its yaw rate: step 5).
 """
 from __future__ import annotations
 
@@ -301,7 +302,7 @@ class LidarObjectTracker:
         """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
         tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
         [s] after `time` (default 0; an object's points are moved back by its predicted
-        velocity times their offset), a beam without a return along the unit vector
+        velocity times their offset, and turned back by its yaw rate: _update), a beam without a return along the unit vector
         directions[k] (K, 2) (default: free_space.beam_directions; NaN: unknown, it tells
         nothing; a beam with a return runs from the sensor to its point), the sensor's
         range_max `max_range` [m] (None: unknown; a beam without a return is then free up to
@@ -635,9 +636,9 @@ class LidarObjectTracker:
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(origins, directions (R, 2), free lengths, returned (R,)) of this scan's beams that
         can meet the track's rectangle (half extents `half` (2,)), in its frame; with
-        `velocity` (vx, vy, w) each beam moved back by (vx, vy) x its time offset and turned
-        back about the centre by -w x that offset, as the object's points are (at_stamp_points;
-        free_space.near's circle grown by the largest move)."""
+        `velocity` (vx, vy, w, cx, cy) each beam moved back by (vx, vy) x its time offset and
+        turned back about (cx, cy) by -w x that offset, as the object's points are
+        (at_stamp_points; free_space.near's circle grown by the largest move)."""
         x = track.filter.x
         r = rotation(x[2])
         directions, free, returned = self._rays
@@ -645,11 +646,12 @@ class LidarObjectTracker:
             self._offsets[:, None] * velocity[:2]
         reach = float(np.hypot(*half)) + float(np.max(np.hypot(*moves.T), initial=0.0))
         rays = near(self._origins, directions, x[:2], reach)
-        origins, directions = self._origins[rays] - x[:2] - moves[rays], directions[rays]
+        origins, directions = self._origins[rays] - moves[rays], directions[rays]
         if velocity is not None and velocity[2]:  # and turned back by yaw rate x offset
-            turned = -self._offsets[rays] * velocity[2]
-            origins, directions = rotate(origins, turned), rotate(directions, turned)
-        return origins @ r, directions @ r, free[rays], returned[rays]
+            turned, pivot = -self._offsets[rays] * velocity[2], velocity[3:5]
+            origins = pivot + rotate(origins - pivot, turned)
+            directions = rotate(directions, turned)
+        return (origins - x[:2]) @ r, directions @ r, free[rays], returned[rays]
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
@@ -776,14 +778,15 @@ class LidarObjectTracker:
                 turned: bool = False) -> bool:
         """Steps 4-6 for one track; False when the scan could not correct it (too few pairs,
         or the measurement outside the filter's gate); InvalidInputError or LinAlgError when
-        the pairs are degenerate.  `turned`: the points are turned back by the predicted yaw
-        rate too (step passes it for a track settled and corrected on the previous scan:
+        the pairs are degenerate.  `turned`: the points are turned back by the yaw rate too,
+        the predicted one for the correction, the corrected one for the shape steps (step
+        passes it for a track settled and corrected on the previous scan:
         before the heading settles the yaw rate is a guess tens of deg/s off, and after
         coasting late^2 var(w) widened the gate enough to take a correction 40 deg off, read
         as 220 deg/s, car_static seed 2008 object 4 seen by 360_10hz)."""
         config = self.config
         x = track.filter.x
-        compensation = np.array([x[3], x[4], x[5] if turned else 0.0])
+        compensation = np.array([x[3], x[4], x[5] if turned else 0.0, x[0], x[1]])
         member = np.isin(labels, clusters)
         moving = bool(np.any(self._offsets[member]))  # the object moved while the beam turned
         if moving:
@@ -830,7 +833,7 @@ class LidarObjectTracker:
         track.filter.update(measured)
         x = track.filter.x
         if moving:  # moved back again, with the corrected motion
-            compensation = np.array([x[3], x[4], x[5] if turned else 0.0])
+            compensation = np.array([x[3], x[4], x[5] if turned else 0.0, x[0], x[1]])
             points[member] = at_stamp_points(taken, self._offsets[member], x[:2], compensation)
             scan = points[member]
             sample = scan[pick]
@@ -910,8 +913,8 @@ class LidarObjectTracker:
     def _grow(self, track: ObjectTrack, matched: np.ndarray, scan: np.ndarray,
               compensation: np.ndarray, face_ends: list[tuple[np.ndarray, int]]) -> None:
         """Step 6: contain the matched points, then cut back what beams pass through
-        (free_space.carve; the beams moved back with `compensation` (vx, vy, w), the motion the
-        scan points were moved back with) and where the beam past a face's end crosses its
+        (free_space.carve; the beams moved back with `compensation` (vx, vy, w, cx, cy), the
+        motion the scan points were moved back with and the centre they were turned about) and where the beam past a face's end crosses its
         line (free_space.face_end_limit, `face_ends` from _face_ends); the anchor becomes this
         scan's centroid."""
         x = track.filter.x
@@ -932,9 +935,10 @@ class LidarObjectTracker:
         beam_directions, beam_free, _ = self._rays
         for face, outer in face_ends:
             late = self._offsets[outer]
-            origin = rotate(self._origins[outer] - late * compensation[:2] - x[:2],
-                          -late * compensation[2])
-            found = face_end_limit((face - x[:2]) @ r, origin @ r,
+            pivot = compensation[3:5]
+            origin = pivot + rotate(self._origins[outer] - late * compensation[:2] - pivot,
+                                    -late * compensation[2])
+            found = face_end_limit((face - x[:2]) @ r, (origin - x[:2]) @ r,
                                    rotate(beam_directions[outer], -late * compensation[2]) @ r,
                                    beam_free[outer], self.config.point_sigma)
             if found is not None:
