@@ -838,12 +838,12 @@ class LidarObjectTracker:
             scan = points[member]
             sample = scan[pick]
         track.swung += wrap_angle(x[2] - before)
-        turn, settled = heading_turn(x, track.filter.p[3:5, 3:5],
-                                     FLIP_RATE * max(config.priors()),
+        flip_speed = FLIP_RATE * max(config.priors())
+        turn, settled = heading_turn(x, track.filter.p[3:5, 3:5], flip_speed,
                                      SIGMAS_TO_TURN if track.told
                                      or time - track.born < DIRECTION_TIME else 0.0)
-        told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= FLIP_RATE * max(
-            config.priors()))  # the velocity told (else: known to be too slow to tell)
+        # the velocity told (else: known to be too slow to tell)
+        told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= flip_speed)
         if settled:  # a turn, or too slow to tell, must hold on VOTES_TO_TURN updates in a row
             vote = turn if told else SLOW_VOTE
             track.votes = track.votes + 1 if vote == track.vote else 1
@@ -1109,8 +1109,8 @@ def predict(motion: KalmanFilter | InteractingModels, dt: float, config: Tracker
     """Predict the filter over dt [s]: the velocity turning with the yaw rate
     (turning_prediction), white (angular) acceleration (process_noise) of accel_sigma and
     yaw_accel_sigma (and the IMM's calm model: calm_yaw_accel_sigma, and, once the heading is
-    `settled` by the velocity, calm_lateral_accel_sigma across it: a box still 90 deg off
-    would hold the velocity back along its true direction)."""
+    `settled` (by the velocity, or as too slow to tell), calm_lateral_accel_sigma across it: a
+    box still 90 deg off would hold the velocity back along its true direction)."""
     if isinstance(motion, InteractingModels):
         lateral = (config.calm_lateral_accel_sigma or None) if settled else None
         calm = process_noise(dt, config.accel_sigma, config.calm_yaw_accel_sigma, lateral,
