@@ -302,9 +302,10 @@ class LidarObjectTracker:
         """One scan at `time` [s]: points (K, 2) in scan order (non-finite = no return) in the
         tracking frame, seen from `sensor` (2,) (default: the origin), point k taken offsets[k]
         [s] after `time` (default 0; an object's points are moved back by its predicted
-        velocity times their offset, and turned back by its yaw rate: _update), a beam without a return along the unit vector
-        directions[k] (K, 2) (default: free_space.beam_directions; NaN: unknown, it tells
-        nothing; a beam with a return runs from the sensor to its point), the sensor's
+        velocity times their offset, and turned back by its yaw rate: _update), a beam without
+        a return along the unit vector directions[k] (K, 2) (default:
+        free_space.beam_directions; NaN: unknown, it tells nothing; a beam with a return runs
+        from the sensor to its point), the sensor's
         range_max `max_range` [m] (None: unknown; a beam without a return is then free up to
         the scan's farthest return only, free_space.beams), origins (K, 2): where the sensor
         was when it took beam k (a moving sensor; default: `sensor` for every beam);
@@ -646,12 +647,20 @@ class LidarObjectTracker:
             self._offsets[:, None] * velocity[:2]
         reach = float(np.hypot(*half)) + float(np.max(np.hypot(*moves.T), initial=0.0))
         rays = near(self._origins, directions, x[:2], reach)
-        origins, directions = self._origins[rays] - moves[rays], directions[rays]
-        if velocity is not None and velocity[2]:  # and turned back by yaw rate x offset
-            turned, pivot = -self._offsets[rays] * velocity[2], velocity[3:5]
-            origins = pivot + rotate(origins - pivot, turned)
-            directions = rotate(directions, turned)
+        origins, directions = (self._origins[rays], directions[rays]) if velocity is None \
+            else self._beams_at_stamp(rays, velocity)
         return (origins - x[:2]) @ r, directions @ r, free[rays], returned[rays]
+
+    def _beams_at_stamp(self, index: np.ndarray, motion: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """(origins, directions) (n, 2) of the beams `index` (n,) moved back as the points of
+        an object with `motion` (vx, vy, w, cx, cy) are: at_stamp_points about (cx, cy), the
+        directions turned by -w x each beam's offset (with w 0, moved back only)."""
+        late, directions = self._offsets[index], self._rays[0][index]
+        if not motion[2]:
+            return self._origins[index] - late[:, None] * motion[:2], directions
+        return (at_stamp_points(self._origins[index], late, motion[3:5], motion[:3]),
+                rotate(directions, -late * motion[2]))
 
     def _drop_duplicates(self, time: float) -> None:
         """Drop each track not updated at `time` whose centre lies in the rectangle of a track
@@ -786,7 +795,7 @@ class LidarObjectTracker:
         as 220 deg/s, car_static seed 2008 object 4 seen by 360_10hz)."""
         config = self.config
         x = track.filter.x
-        compensation = np.array([x[3], x[4], x[5] if turned else 0.0, x[0], x[1]])
+        compensation = motion_back(x, turned)
         member = np.isin(labels, clusters)
         moving = bool(np.any(self._offsets[member]))  # the object moved while the beam turned
         if moving:
@@ -833,7 +842,7 @@ class LidarObjectTracker:
         track.filter.update(measured)
         x = track.filter.x
         if moving:  # moved back again, with the corrected motion
-            compensation = np.array([x[3], x[4], x[5] if turned else 0.0, x[0], x[1]])
+            compensation = motion_back(x, turned)
             points[member] = at_stamp_points(taken, self._offsets[member], x[:2], compensation)
             scan = points[member]
             sample = scan[pick]
@@ -914,9 +923,9 @@ class LidarObjectTracker:
               compensation: np.ndarray, face_ends: list[tuple[np.ndarray, int]]) -> None:
         """Step 6: contain the matched points, then cut back what beams pass through
         (free_space.carve; the beams moved back with `compensation` (vx, vy, w, cx, cy), the
-        motion the scan points were moved back with and the centre they were turned about) and where the beam past a face's end crosses its
-        line (free_space.face_end_limit, `face_ends` from _face_ends); the anchor becomes this
-        scan's centroid."""
+        motion the scan points were moved back with and the centre they were turned about) and
+        where the beam past a face's end crosses its line (free_space.face_end_limit,
+        `face_ends` from _face_ends); the anchor becomes this scan's centroid."""
         x = track.filter.x
         r = rotation(x[2])
         body = (matched - x[:2]) @ r
@@ -932,15 +941,11 @@ class LidarObjectTracker:
                           min_depth=self._margin, share=CARVE_SHARE,
                           min_sine=np.sin(CARVE_ANGLE), returned=returned,
                           margin=self._margin)
-        beam_directions, beam_free, _ = self._rays
+        beam_free = self._rays[1]
         for face, outer in face_ends:
-            late = self._offsets[outer]
-            pivot = compensation[3:5]
-            origin = pivot + rotate(self._origins[outer] - late * compensation[:2] - pivot,
-                                    -late * compensation[2])
-            found = face_end_limit((face - x[:2]) @ r, (origin - x[:2]) @ r,
-                                   rotate(beam_directions[outer], -late * compensation[2]) @ r,
-                                   beam_free[outer], self.config.point_sigma)
+            origin, direction = self._beams_at_stamp(np.array([outer]), compensation)
+            found = face_end_limit((face - x[:2]) @ r, (origin[0] - x[:2]) @ r,
+                                   direction[0] @ r, beam_free[outer], self.config.point_sigma)
             if found is not None:
                 k, side, limit = found
                 if side:
@@ -1160,6 +1165,12 @@ def rotate(vectors: np.ndarray, angles) -> np.ndarray:
     c, s = np.cos(angles), np.sin(angles)
     v = np.asarray(vectors, float)
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
+
+
+def motion_back(x: np.ndarray, turned: bool) -> np.ndarray:
+    """(vx, vy, w, cx, cy) of state x (6,) that a track's points are moved back with
+    (at_stamp_points): its velocity, its yaw rate when `turned` (else 0) and its centre."""
+    return np.array([x[3], x[4], x[5] if turned else 0.0, x[0], x[1]])
 
 
 def at_stamp_points(points: np.ndarray, late: np.ndarray, centre: np.ndarray,
