@@ -276,3 +276,54 @@ def test_stop_and_go_benchmark_motions_and_speed_filter_by_hand():
     truth['vx'], truth['vy'], truth['visible'] = [0.1, 3.0, 0.0], [0.0, 0.0, -2.0], 20
     kept = at_speed(Scan(0.0, np.zeros((0, 2)), truth), 2.0).truth['visible']
     assert kept.tolist() == [0, 20, 20] and truth['visible'].tolist() == [20, 20, 20]
+
+
+OBJECT_HEADER = ('kind,lidar,seed,object,scans,coverage,position_rmse_m,heading_rmse_deg,'
+                 'velocity_rmse_mps,id_switches,within_position,within_heading,within_velocity,'
+                 'passes\n')
+
+
+def object_csv(path: Path, rows: list[str]) -> Path:
+    """A --objects CSV of `rows` ('kind,lidar,seed,object,position,passes': the rest filled)."""
+    lines = []
+    for row in rows:
+        kind, lidar, seed, number, position, passes = row.split(',')
+        lines.append(f'{kind},{lidar},{seed},{number},50,0.9,{position},1.0,0.2,0,1,1,1,{passes}')
+    path.write_text(OBJECT_HEADER + '\n'.join(lines) + '\n')
+    return path
+
+
+def test_lidar_objects_counts_passes_per_set_of_seeds(tmp_path, capsys):
+    """Seeds 100-105 in sets of 3: 100-102 has 3 of 4 objects passing (75 %, under 95 %),
+    103-105 2 of 2; another LiDAR's rows are their own group."""
+    import lidar_objects
+    path = object_csv(tmp_path / 'a.csv', [
+        'car_static,,100,1,0.1,1', 'car_static,,100,2,0.4,0', 'car_static,,102,1,0.1,1',
+        'car_static,,102,3,0.1,1', 'car_static,,103,1,0.1,1', 'car_static,,105,2,0.1,1',
+        'car_static,270_25hz,100,1,0.1,1'])
+    sets = lidar_objects.seed_sets(lidar_objects.read_objects(path), 3)
+    assert sets == {('car_static', ''): [(100, 102, 3, 4), (103, 105, 2, 2)],
+                    ('car_static', '270_25hz'): [(100, 102, 1, 1)]}
+    assert lidar_objects.main(['sets', str(path), '--size', '3']) == 0
+    out = capsys.readouterr().out
+    assert 'car_static: 5 / 6 (83.3 %), 1 of 2 sets of 3 seeds under 95 %' in out
+    assert 'seeds 100-102: 3 / 4 (75.0 %)  <- under' in out
+
+
+def test_lidar_objects_compares_two_runs_object_by_object(tmp_path):
+    """Object 100/2 fixed, 101/1 broken, 101/2 failing and scored in the first run only
+    (neither fixed nor broken, but moved), 100/1 the same: 3 moved of 4, passes 2 -> 2."""
+    import lidar_objects
+    before = lidar_objects.read_objects(object_csv(tmp_path / 'b.csv', [
+        'car_moving,,100,1,0.1,1', 'car_moving,,100,2,0.4,0', 'car_moving,,101,1,0.1,1',
+        'car_moving,,101,2,0.1,0']))
+    after = lidar_objects.read_objects(object_csv(tmp_path / 'c.csv', [
+        'car_moving,,100,1,0.1,1', 'car_moving,,100,2,0.2,1', 'car_moving,,101,1,0.35,0']))
+    lines, moved, totals = lidar_objects.compare(before, after)
+    assert [line.split(':')[0] for line in lines] == [
+        'FIXED car_moving seed 100 object 2', 'BROKEN car_moving seed 101 object 1']
+    assert lines[0].endswith('position 0.400 m, heading 1.0 deg, velocity 0.20 m/s, id '
+                             'switches 0 -> position 0.200 m, heading 1.0 deg, velocity 0.20 '
+                             'm/s, id switches 0')
+    assert moved == 3
+    assert totals == {('car_moving', ''): [2, 2, 4]}

@@ -1,0 +1,124 @@
+"""Per-object LiDAR scores (`da_lidar_eval --scenes ... --objects OUT.csv`): issue 21's share per
+set of seeds, or two runs compared object by object.
+
+    python benchmarks/lidar_objects.py sets OUT.csv [--size 30]
+    python benchmarks/lidar_objects.py compare BEFORE.csv AFTER.csv
+
+sets: per kind (and LiDAR) the objects within all limits with no id switch (the CSV's `passes`)
+over all seeds, then per set of `size` consecutive seeds (from the smallest seed, seeds s0 + i
+size ... s0 + (i + 1) size - 1), the sets under issue 21's 95 % marked.
+
+compare: every object that passes in one run and not in the other (FIXED / BROKEN, with both
+runs' position [m], heading [deg], velocity [m/s] RMSE and id switches; an object scored in one
+run only counts as not passing in the other), how many objects' scores moved at all, and per
+kind (and LiDAR) the passes before -> after.  The way each change of the tracker was measured
+(docs/lidar.md).
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+GOAL = 0.95
+"""Issue 21: at least this share of the objects within all limits with no id switch."""
+SCORES = ('position_rmse_m', 'heading_rmse_deg', 'velocity_rmse_mps', 'id_switches')
+
+Key = tuple[str, str, int, int]
+
+
+def read_objects(path: Path) -> dict[Key, dict]:
+    """{(kind, lidar, seed, object): row} of one --objects CSV."""
+    with open(path, newline='') as file:
+        return {(row['kind'], row['lidar'], int(row['seed']), int(row['object'])): row
+                for row in csv.DictReader(file)}
+
+
+def passed(row: dict | None) -> bool:
+    """Within all limits with no id switch (a missing row: not scored, so no)."""
+    return row is not None and row['passes'] == '1'
+
+
+def seed_sets(objects: dict[Key, dict], size: int) -> dict[tuple[str, str], list]:
+    """{(kind, lidar): [(first seed, last seed, passing, objects), ...]} over sets of `size`
+    consecutive seeds from the kind's smallest seed; sets without scored objects left out."""
+    first_seed: dict[tuple[str, str], int] = {}
+    for kind, lidar, seed, _ in objects:
+        first_seed[kind, lidar] = min(seed, first_seed.get((kind, lidar), seed))
+    counts: dict[tuple[str, str], dict[int, list]] = defaultdict(lambda: defaultdict(
+        lambda: [0, 0]))
+    for (kind, lidar, seed, _), row in objects.items():
+        count = counts[kind, lidar][(seed - first_seed[kind, lidar]) // size]
+        count[0] += passed(row)
+        count[1] += 1
+    return {group: [(first_seed[group] + i * size, first_seed[group] + (i + 1) * size - 1,
+                     good, total) for i, (good, total) in sorted(sets.items())]
+            for group, sets in sorted(counts.items())}
+
+
+def describe(row: dict | None) -> str:
+    """One run's scores of an object."""
+    if row is None:
+        return 'not scored'
+    return (f"position {float(row['position_rmse_m']):.3f} m, heading "
+            f"{float(row['heading_rmse_deg']):.1f} deg, velocity "
+            f"{float(row['velocity_rmse_mps']):.2f} m/s, id switches {row['id_switches']}")
+
+
+def compare(before: dict[Key, dict], after: dict[Key, dict]) -> tuple[list[str], int, dict]:
+    """(a line per object that passes in one run only, objects whose scores moved,
+    {(kind, lidar): [passing before, passing after, objects]})."""
+    lines, moved = [], 0
+    totals: dict[tuple[str, str], list] = defaultdict(lambda: [0, 0, 0])
+    for key in sorted(set(before) | set(after)):
+        old, new = before.get(key), after.get(key)
+        total = totals[key[:2]]
+        total[0] += passed(old)
+        total[1] += passed(new)
+        total[2] += 1
+        if passed(old) != passed(new):
+            kind, lidar, seed, number = key
+            where = f"{kind}{' ' + lidar if lidar else ''} seed {seed} object {number}"
+            lines.append(f"{'FIXED' if passed(new) else 'BROKEN'} {where}: {describe(old)} -> "
+                         f"{describe(new)}")
+        if old is None or new is None or any(old[s] != new[s] for s in SCORES):
+            moved += 1
+    return lines, moved, dict(totals)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    commands = parser.add_subparsers(dest='command', required=True)
+    sets = commands.add_parser('sets', help='the share within all limits per set of seeds')
+    sets.add_argument('objects', type=Path)
+    sets.add_argument('--size', type=int, default=30, help='seeds per set (default 30)')
+    versus = commands.add_parser('compare', help='two runs object by object')
+    versus.add_argument('before', type=Path)
+    versus.add_argument('after', type=Path)
+    args = parser.parse_args(argv)
+    if args.command == 'sets':
+        if args.size < 1:
+            parser.error('--size must be at least 1')
+        for (kind, lidar), rows in seed_sets(read_objects(args.objects), args.size).items():
+            good, total = sum(r[2] for r in rows), sum(r[3] for r in rows)
+            under = [r for r in rows if r[2] < GOAL * r[3]]
+            print(f"{kind}{' ' + lidar if lidar else ''}: {good} / {total} "
+                  f"({100 * good / total:.1f} %), {len(under)} of {len(rows)} sets of "
+                  f"{args.size} seeds under {100 * GOAL:.0f} %")
+            for first, last, good, total in rows:
+                mark = '  <- under' if good < GOAL * total else ''
+                print(f'  seeds {first}-{last}: {good} / {total} ({100 * good / total:.1f} %)'
+                      f'{mark}')
+        return 0
+    lines, moved, totals = compare(read_objects(args.before), read_objects(args.after))
+    print('\n'.join(lines) if lines else 'no object passes in one run only')
+    for (kind, lidar), (old, new, total) in sorted(totals.items()):
+        print(f"{kind}{' ' + lidar if lidar else ''}: {old} -> {new} of {total}")
+    print(f'objects whose scores moved: {moved} of {sum(t[2] for t in totals.values())}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
