@@ -29,11 +29,32 @@ SCORES = ('position_rmse_m', 'heading_rmse_deg', 'velocity_rmse_mps', 'id_switch
 Key = tuple[str, str, int, int]
 
 
+COLUMNS = ('kind', 'lidar', 'seed', 'object', 'passes') + SCORES
+
+
+class ObjectsFileError(ValueError):
+    """A file that is not a readable --objects CSV (the message says why)."""
+
+
 def read_objects(path: Path) -> dict[Key, dict]:
-    """{(kind, lidar, seed, object): row} of one --objects CSV."""
-    with open(path, newline='') as file:
-        return {(row['kind'], row['lidar'], int(row['seed']), int(row['object'])): row
-                for row in csv.DictReader(file)}
+    """{(kind, lidar, seed, object): row} of one --objects CSV; ObjectsFileError when it cannot
+    be read or lacks a column of COLUMNS."""
+    try:
+        with open(path, newline='') as file:
+            reader = csv.DictReader(file)
+            missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
+            if missing:
+                raise ObjectsFileError(f'{path}: no column {", ".join(missing)} (not a '
+                                       f'da_lidar_eval --objects file)')
+            return {(row['kind'], row['lidar'], int(row['seed']), int(row['object'])): row
+                    for row in reader}
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise ObjectsFileError(f'{path}: {error}') from None
+    except ValueError as error:
+        if isinstance(error, ObjectsFileError):
+            raise
+        raise ObjectsFileError(f'{path}: a seed or object that is not a whole number '
+                               f'({error})') from None
 
 
 def passed(row: dict | None) -> bool:
@@ -98,10 +119,21 @@ def main(argv: list[str] | None = None) -> int:
     versus.add_argument('before', type=Path)
     versus.add_argument('after', type=Path)
     args = parser.parse_args(argv)
+    try:
+        return _run(args, parser)
+    except ObjectsFileError as error:
+        parser.exit(2, f'{parser.prog}: error: {error}\n')
+
+
+def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The command of the parsed `args`."""
     if args.command == 'sets':
         if args.size < 1:
             parser.error('--size must be at least 1')
-        for (kind, lidar), rows in seed_sets(read_objects(args.objects), args.size).items():
+        groups = seed_sets(read_objects(args.objects), args.size)
+        if not groups:
+            print(f'{args.objects}: no scored objects')
+        for (kind, lidar), rows in groups.items():
             good, total = sum(r[2] for r in rows), sum(r[3] for r in rows)
             under = [r for r in rows if r[2] < GOAL * r[3]]
             print(f"{kind}{' ' + lidar if lidar else ''}: {good} / {total} "

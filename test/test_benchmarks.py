@@ -327,3 +327,22 @@ def test_lidar_objects_compares_two_runs_object_by_object(tmp_path):
                              'm/s, id switches 0')
     assert moved == 3
     assert totals == {('car_moving', ''): [2, 2, 4]}
+
+
+def test_lidar_objects_refuses_a_file_that_is_no_objects_csv(tmp_path, capsys):
+    """A missing file and a CSV without the --objects columns: one line, exit code 2."""
+    import pytest
+
+    import lidar_objects
+    other = tmp_path / 'other.csv'
+    other.write_text('kind,seed\ncar_static,1\n')
+    for arguments in (['sets', str(tmp_path / 'missing.csv')],
+                      ['compare', str(other), str(other)]):
+        with pytest.raises(SystemExit) as stopped:
+            lidar_objects.main(arguments)
+        assert stopped.value.code == 2
+    errors = capsys.readouterr().err.splitlines()
+    assert 'missing.csv' in errors[0] and 'No such file' in errors[0]
+    assert errors[1].endswith('no column lidar, object, passes, position_rmse_m, '
+                              'heading_rmse_deg, velocity_rmse_mps, id_switches (not a '
+                              'da_lidar_eval --objects file)')

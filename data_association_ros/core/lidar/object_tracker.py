@@ -44,7 +44,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    object wider than its size class allows, and turns the heading when the cluster already
    spreads across it that wide (plausible_turn); a track is reported only once
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
-   SETTLE_TIME unless its velocity is voting to turn it; a track settled as too slow is
+   SETTLE_TIME unless its velocity is voting to turn it or the shape has just cancelled such
+   a turn, turning; a track settled as too slow is
    turned as an unsettled one once it moves: DIRECTION_TIME); a settled track's velocity and
    heading are then corrected towards each other (no_slip, slip_sigma); the rectangle grows or
    moves to
@@ -207,7 +208,9 @@ class ObjectTrack:
     this track has been reported; settled: its heading is settled (heading_turn), told: by the
     velocity, not as too slow to tell; fitted: the centre (2,) of the rectangle last fitted to a
     cluster, where the object was when those beams were taken (the two-point start's first
-    point; last is the posterior at the stamp)."""
+    point; last is the posterior at the stamp); disputed: on its last update the velocity voted
+    VOTES_TO_TURN times to turn its heading and the cluster's shape cancelled the turn
+    (plausible_turn)."""
 
     id: int
     filter: KalmanFilter | InteractingModels
@@ -227,6 +230,7 @@ class ObjectTrack:
     swung: float = 0.0
     published: bool = False
     fitted: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    disputed: bool = False
 
     def continue_from(self, old: 'ObjectTrack') -> None:
         """Take over old's id (the same object, found again by this track)."""
@@ -284,8 +288,9 @@ class LidarObjectTracker:
     def reported(self) -> list[ObjectTrack]:
         """Tracks updated on at least min_hits scans whose heading is settled (heading_turn) or
         that have been tracked for SETTLE_TIME, unless their velocity is voting to turn them
-        (the heading they have is then known to be wrong: f1tenth_moving seed 325 object 2,
-        hidden while its votes were counted, was reported pointing backwards)."""
+        or their heading is in dispute (turning: the heading they have is then known to be
+        wrong, or may be: f1tenth_moving seed 325 object 2, hidden while its votes were
+        counted, was reported pointing backwards)."""
         return [t for t in self.tracks if self._reportable(t, self.time)]
 
     def _reportable(self, track: ObjectTrack, time: float) -> bool:
@@ -863,6 +868,8 @@ class LidarObjectTracker:
             track.votes = 0
         shaped = plausible_turn(scan, x[2], x[3:5], turn, track.settled,
                                 *self.config.priors())
+        # a turn the velocity voted for and the shape cancelled: the heading is in dispute
+        track.disputed = bool(turn) and not shaped
         if shaped != turn:  # the cluster's shape overrules the velocity's votes
             turn, settled, track.votes = shaped, False, 0
         track.settled = track.settled or settled
@@ -1096,8 +1103,13 @@ def vague(track: ObjectTrack) -> bool:
 
 def turning(track: ObjectTrack) -> bool:
     """Whether the track's last velocity votes (heading_turn, not yet VOTES_TO_TURN in a row)
-    are for turning its heading."""
-    return not track.settled and track.votes > 0 and track.vote not in (0.0, SLOW_VOTE)
+    are for turning its heading, or its heading is in dispute (ObjectTrack.disputed: the votes
+    were all cast and the shape cancelled the turn; f1tenth_static seed 5020 object 1 seen by
+    360_10hz_coarse, a box fitted 0.47 x 0.43 m to a 0.55 x 0.30 m car, was reported at
+    SETTLE_TIME 98 deg off while its velocity, 2.9 m/s with std 0.7, pointed within 10 deg of
+    the truth; turned on the next scan)."""
+    return not track.settled and (track.disputed or (
+        track.votes > 0 and track.vote not in (0.0, SLOW_VOTE)))
 
 
 def motion_filter(x: np.ndarray, p: np.ndarray, config: TrackerConfig
