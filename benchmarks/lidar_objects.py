@@ -5,8 +5,9 @@ set of seeds, or two runs compared object by object.
     python benchmarks/lidar_objects.py compare BEFORE.csv AFTER.csv
 
 sets: per kind (and LiDAR) the objects within all limits with no id switch (the CSV's `passes`)
-over all seeds, then per set of `size` consecutive seeds (from the smallest seed, seeds s0 + i
-size ... s0 + (i + 1) size - 1), the sets under issue 21's 95 % marked.
+over all seeds, then per set of `size` consecutive seeds (from the file's smallest seed s0:
+seeds s0 + i size ... s0 + (i + 1) size - 1, the same sets for every kind), the sets under
+issue 21's 95 % marked.
 
 compare: every object that passes in one run and not in the other (FIXED / BROKEN, with both
 runs' position [m], heading [deg], velocity [m/s] RMSE and id switches; an object scored in one
@@ -46,15 +47,28 @@ def read_objects(path: Path) -> dict[Key, dict]:
             if missing:
                 raise ObjectsFileError(f'{path}: no column {", ".join(missing)} (not a '
                                        f'da_lidar_eval --objects file)')
-            return {(row['kind'], row['lidar'], int(row['seed']), int(row['object'])): row
-                    for row in reader}
+            objects = {}
+            for row in reader:
+                key = _key(row, path, reader.line_num)
+                if key in objects:
+                    raise ObjectsFileError(f'{path}, line {reader.line_num}: seed {key[2]} '
+                                           f'object {key[3]} of {key[0]} listed twice')
+                objects[key] = row
+            return objects
     except (OSError, UnicodeDecodeError, csv.Error) as error:
         raise ObjectsFileError(f'{path}: {error}') from None
-    except ValueError as error:
-        if isinstance(error, ObjectsFileError):
-            raise
-        raise ObjectsFileError(f'{path}: a seed or object that is not a whole number '
-                               f'({error})') from None
+
+
+def _key(row: dict, path: Path, line: int) -> Key:
+    """(kind, lidar, seed, object) of one row, its scores checked to be numbers."""
+    try:
+        for column in SCORES:
+            float(row[column])
+        return row['kind'], row['lidar'], int(row['seed']), int(row['object'])
+    except (TypeError, ValueError):  # a short row (None) or a field that is no number
+        raise ObjectsFileError(f'{path}, line {line}: not a complete row of numbers '
+                               f'({", ".join(f"{c}={row.get(c)!r}" for c in COLUMNS)})'
+                               ) from None
 
 
 def passed(row: dict | None) -> bool:
@@ -64,18 +78,17 @@ def passed(row: dict | None) -> bool:
 
 def seed_sets(objects: dict[Key, dict], size: int) -> dict[tuple[str, str], list]:
     """{(kind, lidar): [(first seed, last seed, passing, objects), ...]} over sets of `size`
-    consecutive seeds from the kind's smallest seed; sets without scored objects left out."""
-    first_seed: dict[tuple[str, str], int] = {}
-    for kind, lidar, seed, _ in objects:
-        first_seed[kind, lidar] = min(seed, first_seed.get((kind, lidar), seed))
+    consecutive seeds from the file's smallest seed (the same sets for every kind); sets
+    without scored objects left out."""
+    first = min((seed for _, _, seed, _ in objects), default=0)
     counts: dict[tuple[str, str], dict[int, list]] = defaultdict(lambda: defaultdict(
         lambda: [0, 0]))
     for (kind, lidar, seed, _), row in objects.items():
-        count = counts[kind, lidar][(seed - first_seed[kind, lidar]) // size]
+        count = counts[kind, lidar][(seed - first) // size]
         count[0] += passed(row)
         count[1] += 1
-    return {group: [(first_seed[group] + i * size, first_seed[group] + (i + 1) * size - 1,
-                     good, total) for i, (good, total) in sorted(sets.items())]
+    return {group: [(first + i * size, first + (i + 1) * size - 1, good, total)
+                    for i, (good, total) in sorted(sets.items())]
             for group, sets in sorted(counts.items())}
 
 

@@ -322,6 +322,14 @@ def test_lidar_objects_compares_two_runs_object_by_object(tmp_path):
     lines, moved, totals = lidar_objects.compare(before, after)
     assert [line.split(':')[0] for line in lines] == [
         'FIXED car_moving seed 100 object 2', 'BROKEN car_moving seed 101 object 1']
+    backwards = lidar_objects.compare(after, before)[0]  # 101/2 scored in the second run only
+    assert [line.split(':')[0] for line in backwards] == [
+        'BROKEN car_moving seed 100 object 2', 'FIXED car_moving seed 101 object 1']
+    new = lidar_objects.read_objects(object_csv(tmp_path / 'd.csv', ['race,,3,1,0.01,1']))
+    only_new = lidar_objects.compare({}, new)  # scored and passing in one run only
+    assert only_new == (['FIXED race seed 3 object 1: not scored -> position 0.010 m, heading '
+                         '1.0 deg, velocity 0.20 m/s, id switches 0'], 1,
+                        {('race', ''): [0, 1, 1]})
     assert lines[0].endswith('position 0.400 m, heading 1.0 deg, velocity 0.20 m/s, id '
                              'switches 0 -> position 0.200 m, heading 1.0 deg, velocity 0.20 '
                              'm/s, id switches 0')
@@ -336,8 +344,12 @@ def test_lidar_objects_refuses_a_file_that_is_no_objects_csv(tmp_path, capsys):
     import lidar_objects
     other = tmp_path / 'other.csv'
     other.write_text('kind,seed\ncar_static,1\n')
+    short = object_csv(tmp_path / 'short.csv', ['car_static,,100,1,0.1,1'])
+    short.write_text(short.read_text() + 'car_static,,101\n')
+    twice = object_csv(tmp_path / 'twice.csv', ['race,,7,2,0.01,1', 'race,,7,2,0.01,1'])
     for arguments in (['sets', str(tmp_path / 'missing.csv')],
-                      ['compare', str(other), str(other)]):
+                      ['compare', str(other), str(other)], ['sets', str(short)],
+                      ['compare', str(twice), str(short)]):
         with pytest.raises(SystemExit) as stopped:
             lidar_objects.main(arguments)
         assert stopped.value.code == 2
@@ -346,3 +358,5 @@ def test_lidar_objects_refuses_a_file_that_is_no_objects_csv(tmp_path, capsys):
     assert errors[1].endswith('no column lidar, object, passes, position_rmse_m, '
                               'heading_rmse_deg, velocity_rmse_mps, id_switches (not a '
                               'da_lidar_eval --objects file)')
+    assert 'short.csv, line 3: not a complete row of numbers' in errors[2]
+    assert errors[3].endswith('twice.csv, line 3: seed 7 object 2 of race listed twice')

@@ -142,7 +142,8 @@ def test_a_track_whose_velocity_votes_to_turn_it_waits_to_be_reported():
     """After SETTLE_TIME an unsettled track is reported with the heading it has, unless its
     velocity's last votes are for a turn (the heading is then known to be wrong: f1tenth_moving
     seed 325 object 2 was reported pointing backwards for the 2 scans before its third vote,
-    heading RMSE 18 deg); too slow to tell, or no turn, it is reported."""
+    heading RMSE 18 deg) or the shape has just cancelled a turn they voted for in full
+    (disputed); too slow to tell, or no turn, it is reported."""
     tracker = LidarObjectTracker(TrackerConfig(min_hits=1))
     track = tracker._start(np.array([[5.0, -0.2], [5.0, 0.0], [5.0, 0.2]]), np.zeros(2), 0.0)
     tracker.time = SETTLE_TIME + 0.1
@@ -151,6 +152,11 @@ def test_a_track_whose_velocity_votes_to_turn_it_waits_to_be_reported():
                                            (SLOW_VOTE, 2, False, True), (np.pi, 2, True, True)):
         track.vote, track.votes, track.settled = vote, votes, settled
         assert (tracker.reported() == [track]) == expected, (vote, votes, settled)
+    # a turn voted in full and cancelled by the shape (disputed): held back, unless settled
+    for disputed, settled, expected in ((True, False, False), (True, True, True),
+                                        (False, False, True)):
+        track.vote, track.votes, track.settled, track.disputed = np.pi / 2, 0, settled, disputed
+        assert (tracker.reported() == [track]) == expected, (disputed, settled)
     track.vote, track.votes, track.settled = 0.0, 0, False
     tracker.time = SETTLE_TIME / 2
     assert tracker.reported() == []  # neither settled nor old enough

@@ -44,8 +44,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    object wider than its size class allows, and turns the heading when the cluster already
    spreads across it that wide (plausible_turn); a track is reported only once
    its heading is settled so (or known too slow to tell on 3 updates in a row, or after
-   SETTLE_TIME unless its velocity is voting to turn it or the shape has just cancelled such
-   a turn, turning; a track settled as too slow is
+   SETTLE_TIME unless its velocity is voting to turn it or the shape cancelled such a turn on
+   its last correction, turning; a track settled as too slow is
    turned as an unsettled one once it moves: DIRECTION_TIME); a settled track's velocity and
    heading are then corrected towards each other (no_slip, slip_sigma); the rectangle grows or
    moves to
@@ -208,9 +208,9 @@ class ObjectTrack:
     this track has been reported; settled: its heading is settled (heading_turn), told: by the
     velocity, not as too slow to tell; fitted: the centre (2,) of the rectangle last fitted to a
     cluster, where the object was when those beams were taken (the two-point start's first
-    point; last is the posterior at the stamp); disputed: on its last update the velocity voted
-    VOTES_TO_TURN times to turn its heading and the cluster's shape cancelled the turn
-    (plausible_turn)."""
+    point; last is the posterior at the stamp); disputed: on its last correction the velocity
+    voted VOTES_TO_TURN times in a row to turn its heading and the cluster's shape cancelled
+    the turn (plausible_turn); it holds while the track coasts."""
 
     id: int
     filter: KalmanFilter | InteractingModels
