@@ -172,6 +172,16 @@ def test_the_smallest_eigenvalue_of_a_huge_indefinite_matrix_is_reported_without
 
 
 @pytest.mark.filterwarnings('error::RuntimeWarning')
+def test_a_stack_with_opposite_huge_entries_is_rejected_as_asymmetric_without_overflow():
+    """check_spd on [[1e308, -1.7e308], [1.7e308, 1e308]]: M - M^T overflowed (a
+    RuntimeWarning in a fresh-clone run of the fuzz test below); the test is made on M scaled
+    by 1 + max |M|, the same test without the overflow."""
+    with pytest.raises(InvalidInputError, match=r'covariances\[1\]: not symmetric'):
+        check_spd(np.array([np.eye(2), [[1e308, -1.7e308], [1.7e308, 1e308]]]), 'covariances')
+    check_spd(np.array([[[1e308, 1e307], [1e307, 1e308]]]), 'covariances')  # SPD: accepted
+
+
+@pytest.mark.filterwarnings('error::RuntimeWarning')
 def test_an_asymmetric_matrix_of_opposite_huge_entries_is_rejected_without_overflow():
     """1e308 against -1e308: their difference overflows to inf, which is asymmetry, reported
     as such (no RuntimeWarning), compiled or not."""

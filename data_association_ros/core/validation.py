@@ -47,11 +47,11 @@ def check_spd(matrices: np.ndarray, field: str) -> None:
     if matrices.size == 0:
         return
     scale = 1.0 + np.abs(matrices).max(axis=(-2, -1))
-    asym = np.abs(matrices - np.swapaxes(matrices, -1, -2)).max(axis=(-2, -1))
-    bad = np.flatnonzero(asym > 1e-9 * scale)
+    unit = matrices / scale[..., None, None]   # entries within [-1, 1]: no overflow below
+    asym = np.abs(unit - np.swapaxes(unit, -1, -2)).max(axis=(-2, -1))
+    bad = np.flatnonzero(asym > 1e-9)   # |M - M^T| > 1e-9 (1 + max |M|)
     if bad.size:
         raise InvalidInputError(f'{field}[{bad[0]}]: not symmetric')
-    unit = matrices / scale[..., None, None]   # entries within [-1, 1]: no overflow below
     if matrices.shape[-1] == 2:     # closed form: many small matrices, no LAPACK call each
         a, b, c = unit[:, 0, 0], unit[:, 0, 1], unit[:, 1, 1]
         smallest = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b)
