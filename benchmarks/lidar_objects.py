@@ -92,6 +92,11 @@ def seed_sets(objects: dict[Key, dict], size: int) -> dict[tuple[str, str], list
             for group, sets in sorted(counts.items())}
 
 
+def group_name(kind: str, lidar: str) -> str:
+    """A kind, with the LiDAR it was seen by unless the scene's own ('')."""
+    return f'{kind} {lidar}' if lidar else kind
+
+
 def describe(row: dict | None) -> str:
     """One run's scores of an object."""
     if row is None:
@@ -114,7 +119,7 @@ def compare(before: dict[Key, dict], after: dict[Key, dict]) -> tuple[list[str],
         total[2] += 1
         if passed(old) != passed(new):
             kind, lidar, seed, number = key
-            where = f"{kind}{' ' + lidar if lidar else ''} seed {seed} object {number}"
+            where = f'{group_name(kind, lidar)} seed {seed} object {number}'
             lines.append(f"{'FIXED' if passed(new) else 'BROKEN'} {where}: {describe(old)} -> "
                          f"{describe(new)}")
         if old is None or new is None or any(old[s] != new[s] for s in SCORES):
@@ -149,7 +154,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         for (kind, lidar), rows in groups.items():
             good, total = sum(r[2] for r in rows), sum(r[3] for r in rows)
             under = [r for r in rows if r[2] < GOAL * r[3]]
-            print(f"{kind}{' ' + lidar if lidar else ''}: {good} / {total} "
+            print(f'{group_name(kind, lidar)}: {good} / {total} '
                   f"({100 * good / total:.1f} %), {len(under)} of {len(rows)} sets of "
                   f"{args.size} seeds under {100 * GOAL:.0f} %")
             for first, last, good, total in rows:
@@ -160,7 +165,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     lines, moved, totals = compare(read_objects(args.before), read_objects(args.after))
     print('\n'.join(lines) if lines else 'no object passes in one run only')
     for (kind, lidar), (old, new, total) in sorted(totals.items()):
-        print(f"{kind}{' ' + lidar if lidar else ''}: {old} -> {new} of {total}")
+        print(f'{group_name(kind, lidar)}: {old} -> {new} of {total}')
     print(f'objects whose scores moved: {moved} of {sum(t[2] for t in totals.values())}')
     return 0
 
