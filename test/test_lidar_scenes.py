@@ -697,6 +697,21 @@ def test_a_heading_in_dispute_is_not_reported_at_settle_time():
     assert len(errors) > 25 and max(errors) < 10.0, errors
 
 
+def test_a_track_wider_than_a_car_is_not_settled_as_too_slow():
+    """car_static seed 6101 object 5: a 4.97 m car at 3.5 m/s coming out from behind something
+    at 25 m, first fitted across its heading.  Its side grew into view as the box's width
+    (1.80 -> 2.55 m in 0.3 s) instead of moving it, so the velocity read 0 +- 1.0 m/s and
+    the track settled as too slow to tell, reported 90 deg off (heading RMSE 60 deg, position
+    1.43 m on its first reported scans).  Returns spreading across the heading wider than
+    WIDTH_SLACK x the prior width are no car's width: not known to be slow, the track waits
+    until the shape turns it (heading RMSE 0.5 deg, every reported scan within 5 deg)."""
+    scans = scans_from_messages(KINDS['car_static'](6101).messages())
+    estimates, _ = run_offline(scans, configuration('car_static', TrackerConfig()))
+    result = score(scans, estimates)[5]
+    assert result.id_switches == 0 and result.heading_rmse_deg < 5.0, result
+    assert result.position_rmse < 0.3 and result.coverage > 0.5, result
+
+
 def test_car_found_again_off_its_coasting_prediction_keeps_its_id():
     """An F1Tenth car at 3 m/s, 3 m to the side, hidden behind a parked one (1.5 m from the
     sensor) while it turns left at 1 rad/s for 0.5 s: found again about 0.3 m off its

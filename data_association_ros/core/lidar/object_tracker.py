@@ -43,7 +43,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    settled, the cluster's spread across the heading vetoes a turn across that would make the
    object wider than its size class allows, and turns the heading when the cluster already
    spreads across it that wide (plausible_turn); a track is reported only once
-   its heading is settled so (or known too slow to tell on 3 updates in a row, or after
+   its heading is settled so (or known too slow to tell on 3 updates in a row, its returns
+   spreading across the heading within WIDTH_SLACK x the prior width, or after
    SETTLE_TIME unless its velocity is voting to turn it or the shape cancelled such a turn on
    its last correction, turning; a track settled as too slow is
    turned as an unsettled one once it moves: DIRECTION_TIME); a settled track's velocity and
@@ -858,6 +859,11 @@ class LidarObjectTracker:
                                      or time - track.born < DIRECTION_TIME else 0.0)
         # the velocity told (else: known to be too slow to tell)
         told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= flip_speed)
+        if settled and not told and across_spread(scan, x[2]) > \
+                WIDTH_SLACK * self.config.priors()[1]:
+            # no object is that wide: its "width" may be its length coming into view while it
+            # moves, so it is not known to be slow (car_static seed 6101 object 5)
+            settled = False
         if settled:  # a turn, or too slow to tell, must hold on VOTES_TO_TURN updates in a row
             vote = turn if told else SLOW_VOTE
             track.votes = track.votes + 1 if vote == track.vote else 1
