@@ -1146,7 +1146,9 @@ def test_a_car_seen_end_on_before_a_wall_is_tracked(monkeypatch):
     wall's first return, so the car and 13 m of wall were one cluster from the fifth scan on,
     and the track started from it (14 m x 6.5 m, centre 6 m from the car) held the car's
     returns: the car, seen in 83 scans, was never tracked.  With the face ending at its far
-    corner (clustering.ends_receding) it is tracked within the limits."""
+    corner (clustering.ends_receding) it is tracked within the limits.  Without it, since a
+    track wider than a car is no longer settled as too slow (12a26cf), the car is tracked on
+    about half of its scans (coverage 0.52)."""
     scans = scans_from_messages(KINDS['car_moving'](1098).messages())
     config = configuration('car_moving', TrackerConfig())
     result = score(scans, run_offline(scans, config)[0])[4]
@@ -1156,7 +1158,7 @@ def test_a_car_seen_end_on_before_a_wall_is_tracked(monkeypatch):
     monkeypatch.setattr(clustering, 'ends_receding',
                         lambda points, jumps, at, *args: np.zeros(len(at), dtype=bool))
     before = score(scans, run_offline(scans, config)[0])[4]
-    assert before.coverage == 0.0, before
+    assert before.coverage < 0.6, before
 
 
 def test_vague_by_hand():
