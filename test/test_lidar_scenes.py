@@ -703,8 +703,8 @@ def test_a_track_wider_than_a_car_is_not_settled_as_too_slow():
     (1.80 -> 2.55 m in 0.3 s) instead of moving it, so the velocity read 0 +- 1.0 m/s and
     the track settled as too slow to tell, reported 90 deg off (heading RMSE 60 deg, position
     1.43 m on its first reported scans).  Returns spreading across the heading wider than
-    WIDTH_SLACK x the prior width are no car's width: not known to be slow, the track waits
-    until the shape turns it (heading RMSE 0.5 deg, every reported scan within 5 deg)."""
+    WIDTH_SLACK x the prior width are no car's width: not known to be slow, the track is not
+    settled and the shape turns it before SETTLE_TIME (heading RMSE 0.5 deg)."""
     scans = scans_from_messages(KINDS['car_static'](6101).messages())
     estimates, _ = run_offline(scans, configuration('car_static', TrackerConfig()))
     result = score(scans, estimates)[5]

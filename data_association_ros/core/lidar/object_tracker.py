@@ -43,8 +43,8 @@ Per scan (points (K, 2) in scan order, seen from the origin; time t [s]):
    settled, the cluster's spread across the heading vetoes a turn across that would make the
    object wider than its size class allows, and turns the heading when the cluster already
    spreads across it that wide (plausible_turn); a track is reported only once
-   its heading is settled so (or known too slow to tell on 3 updates in a row, its returns
-   spreading across the heading within WIDTH_SLACK x the prior width, or after
+   its heading is settled so (or known too slow to tell on 3 updates in a row with its
+   returns spreading across the heading within WIDTH_SLACK x the prior width on each, or after
    SETTLE_TIME unless its velocity is voting to turn it or the shape cancelled such a turn on
    its last correction, turning; a track settled as too slow is
    turned as an unsettled one once it moves: DIRECTION_TIME); a settled track's velocity and
@@ -168,11 +168,12 @@ boundary point: no reach)."""
 WIDTH_SLACK = 1.25
 """A cluster spread across the heading by more than WIDTH_SLACK x the prior width is no object's
 width (car widths 1.6-2.0 m against a 1.8 m prior, F1Tenth 0.27-0.33 m against 0.30 m): a
-velocity vote that would turn the heading so is cancelled (plausible_turn).  Turning a heading
+velocity vote that would turn the heading so is cancelled (plausible_turn), and a track whose
+returns spread so is not known to be too slow to tell (_update).  Turning a heading
 on the shape alone takes a spread across it beyond the middle of the prior width and length
 (3.15 m for a car, 0.425 m for an F1Tenth car): a heading a few degrees off adds a share of the
 seen length to the spread across it (race seed 424: 0.38 m across an F1Tenth car 9 deg off).
-Neither applies when WIDTH_SLACK x the prior width is not below the prior length (a
+None applies when WIDTH_SLACK x the prior width is not below the prior length (a
 pedestrian's square prior: either axis fits)."""
 TRUSTED_COAST_TURN = np.pi / 4
 """A coasting track whose predicted heading turned by more than this [rad] since its last
@@ -859,10 +860,12 @@ class LidarObjectTracker:
                                      or time - track.born < DIRECTION_TIME else 0.0)
         # the velocity told (else: known to be too slow to tell)
         told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= flip_speed)
-        if settled and not told and across_spread(scan, x[2]) > \
-                WIDTH_SLACK * self.config.priors()[1]:
-            # no object is that wide: its "width" may be its length coming into view while it
-            # moves, so it is not known to be slow (car_static seed 6101 object 5)
+        length, width = self.config.priors()
+        if settled and not told and WIDTH_SLACK * width < length and \
+                across_spread(scan, x[2]) > WIDTH_SLACK * width:
+            # no object of the size class is that wide: its "width" may be its length coming
+            # into view while it moves, so it is not known to be slow (car_static seed 6101
+            # object 5)
             settled = False
         if settled:  # a turn, or too slow to tell, must hold on VOTES_TO_TURN updates in a row
             vote = turn if told else SLOW_VOTE
