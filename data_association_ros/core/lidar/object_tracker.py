@@ -854,15 +854,15 @@ class LidarObjectTracker:
             scan = points[member]
             sample = scan[pick]
         track.swung += wrap_angle(x[2] - before)
-        flip_speed = FLIP_RATE * max(config.priors())
+        prior_length, prior_width = config.priors()
+        flip_speed = FLIP_RATE * max(prior_length, prior_width)
         turn, settled = heading_turn(x, track.filter.p[3:5, 3:5], flip_speed,
                                      SIGMAS_TO_TURN if track.told
                                      or time - track.born < DIRECTION_TIME else 0.0)
         # the velocity told (else: known to be too slow to tell)
         told = settled and (turn != 0.0 or np.hypot(x[3], x[4]) >= flip_speed)
-        length, width = self.config.priors()
-        if settled and not told and WIDTH_SLACK * width < length and \
-                across_spread(scan, x[2]) > WIDTH_SLACK * width:
+        if settled and not told and WIDTH_SLACK * prior_width < prior_length and \
+                across_spread(scan, x[2]) > WIDTH_SLACK * prior_width:
             # no object of the size class is that wide: its "width" may be its length coming
             # into view while it moves, so it is not known to be slow (car_static seed 6101
             # object 5)
@@ -875,8 +875,8 @@ class LidarObjectTracker:
                 turn, settled = 0.0, False
         else:
             track.votes = 0
-        shaped = plausible_turn(scan, x[2], x[3:5], turn, track.settled,
-                                *self.config.priors())
+        shaped = plausible_turn(scan, x[2], x[3:5], turn, track.settled, prior_length,
+                                prior_width)
         # a turn the velocity voted for and the shape cancelled: the heading is in dispute
         track.disputed = bool(turn) and not shaped
         if shaped != turn:  # the cluster's shape overrules the velocity's votes
@@ -891,7 +891,7 @@ class LidarObjectTracker:
             # the axes were mistaken, or the extent was cut along a heading since corrected:
             # the rectangle anew along the velocity (or the heading)
             hidden = self._occluded[clusters[0]] if len(clusters) == 1 else None
-            centre, yaw, length, width = fit_at(scan, x[2] + turn, *self.config.priors(),
+            centre, yaw, length, width = fit_at(scan, x[2] + turn, prior_length, prior_width,
                                                 sensor=self.sensor, occluded=hidden,
                                                 directed=True)
             x[:3] = [centre[0], centre[1], yaw]
